@@ -1,0 +1,1 @@
+//! The wire contract between Lamina processes (iceoryx2).

@@ -1,0 +1,1 @@
+//! Lamina physics core.

@@ -1,0 +1,1 @@
+//! Triangle surfaces: loading, repair, inspection and ray casting.

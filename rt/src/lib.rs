@@ -1,0 +1,1 @@
+//! Real-time plumbing: clocks, fixed-rate loops, the deadline monitor.
