@@ -1,1 +1,127 @@
-fn main() {}
+//! `lamina`: the command line of the physics core.
+
+mod cli;
+
+use clap::{Parser, Subcommand};
+use lamina_core::solver::SimdLevel;
+use lamina_core::yardstick::LatticeSize;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+#[derive(Parser)]
+#[command(name = "lamina", version, about = "Real-time layered soft-tissue simulation core")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Benchmarks that print tables.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+    /// Step the yardstick scene and write final positions as CSV.
+    Yardstick {
+        /// small, medium, large, or NXxNYxNZ.
+        #[arg(long, default_value = "small")]
+        size: String,
+        /// Steps of 1e-4 s.
+        #[arg(long, default_value_t = 1000)]
+        steps: usize,
+        /// Output CSV (header x_m,y_m,z_m).
+        #[arg(long)]
+        out: PathBuf,
+        /// f64 or f32.
+        #[arg(long, default_value = "f64")]
+        precision: String,
+        /// Use the specification's scalar loop instead of Lamina's solver.
+        #[arg(long)]
+        reference: bool,
+        /// Worker threads.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
+    Yardstick {
+        /// Comma-separated: small, medium, large, or NXxNYxNZ.
+        #[arg(long, default_value = "small,medium,large")]
+        sizes: String,
+        /// Comma-separated thread counts; default 1 and all CPUs.
+        #[arg(long)]
+        threads: Option<String>,
+        /// Comma-separated: f32, f64.
+        #[arg(long, default_value = "f32,f64")]
+        precision: String,
+        /// Kernel levels: best, all, or a comma-separated list of baseline, avx2, avx512.
+        #[arg(long, default_value = "best")]
+        simd: String,
+        /// Leave out the scalar reference loop.
+        #[arg(long)]
+        no_reference: bool,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Seconds per timed batch (5 batches, median reported).
+        #[arg(long, default_value_t = 0.4)]
+        batch_seconds: f64,
+    },
+}
+
+fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
+    s.split(',').map(|p| f(p.trim()).ok_or_else(|| format!("unknown {what} '{p}'"))).collect()
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.command {
+        Command::Bench {
+            what: BenchCommand::Yardstick { sizes, threads, precision, simd, no_reference, json, batch_seconds },
+        } => {
+            let all = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+            let threads = match threads {
+                Some(t) => parse_list(&t, "thread count", |p| p.parse().ok().filter(|&n: &usize| n >= 1))?,
+                None if all > 1 => vec![1, all],
+                None => vec![1],
+            };
+            let levels = match simd.as_str() {
+                "best" => vec![SimdLevel::detect()],
+                "all" => SimdLevel::available(),
+                list => parse_list(list, "SIMD level", SimdLevel::parse)?,
+            };
+            let opts = cli::yardstick_cmd::BenchOptions {
+                sizes: parse_list(&sizes, "size", LatticeSize::parse)?,
+                threads,
+                precisions: parse_list(&precision, "precision", |p| match p {
+                    "f32" => Some("f32"),
+                    "f64" => Some("f64"),
+                    _ => None,
+                })?,
+                levels,
+                reference: !no_reference,
+                json,
+                batch: Duration::from_secs_f64(batch_seconds.max(0.01)),
+            };
+            cli::yardstick_cmd::bench(&opts)
+        }
+        Command::Yardstick { size, steps, out, precision, reference, threads } => {
+            let size = LatticeSize::parse(&size).ok_or_else(|| format!("unknown size '{size}'"))?;
+            cli::yardstick_cmd::write_csv(size, steps, &precision, reference, threads, &out)
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("lamina: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,1 +1,70 @@
-//! Real-time plumbing: clocks, fixed-rate loops, the deadline monitor.
+//! Real-time plumbing for Lamina: clocks, fixed-rate loops on absolute
+//! deadlines, the deadline monitor, and real-time setup (CPU pinning,
+//! `SCHED_FIFO`, locked memory, stop signals).
+//!
+//! Used by the core process (physics at a fixed rate, 1 kHz by default) and
+//! the haptics process (device loop at 1-4 kHz).
+//!
+//! # How it fits together
+//!
+//! 1. [`Clock`]: `now()` and `sleep_until(deadline)` in ns.
+//!    [`MonotonicClock`] is the real one; [`FakeClock`] moves only when told,
+//!    so tests are exact and never depend on wall time.
+//! 2. [`FixedRateLoop`]: `next += period; sleep_until(next)`, never "sleep one
+//!    period"; overruns handled by an explicit, counted [`OverrunPolicy`].
+//! 3. [`DeadlineMonitor`]: per-tick lateness, compute, period and send time
+//!    into HDR histograms, misses, worst ticks, a [`MonitorSummary`] table and
+//!    a JSON report.
+//! 4. [`RealtimeSetup`] and [`install_stop_handler`]: the process-level setup,
+//!    each refusal reported, never a panic.
+//!
+//! **Architecture invariant:** the per-tick path (loop + monitor recording)
+//! allocates nothing, takes no lock and does no I/O; `tests/no_alloc.rs`
+//! checks the allocation part with a counting global allocator.
+//!
+//! # Examples
+//!
+//! ```
+//! use std::ops::ControlFlow;
+//! use lamina_rt::{DeadlineMonitor, FakeClock, FixedRateLoop, MonitorConfig, OverrunPolicy, RunLimit};
+//!
+//! let clock = FakeClock::new(0).with_compute(|_| 200_000); // 0.2 ms per tick
+//! let mut lp = FixedRateLoop::new(clock.clone(), 1_000, OverrunPolicy::CatchUp);
+//! let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(lp.period_ns()));
+//! let run = lp.run(RunLimit::duration_ns(1_000_000_000), &mut monitor, |info| {
+//!     clock.spend(info.tick);
+//!     ControlFlow::Continue(())
+//! });
+//! assert_eq!(run.ticks, 1_000);
+//! assert_eq!(monitor.summary().misses, 0);
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod fixed_rate;
+pub mod monitor;
+pub mod ring;
+pub mod setup;
+pub mod signal;
+pub mod summary;
+pub mod tick;
+pub mod worst;
+
+pub use clock::{Clock, ComputeModel, DEFAULT_SPIN_NS, FakeClock, MonotonicClock};
+pub use fixed_rate::{
+    FixedRateLoop, FixedRateLoopCreateError, OverrunPolicy, RunLimit, RunSummary, StopReason, period_ns_from_rate_hz,
+};
+pub use monitor::{
+    DEFAULT_MAX_TRACKABLE_NS, DEFAULT_PERIOD_NS, DeadlineMonitor, DeadlineMonitorCreateError, MonitorConfig,
+    MonitorReportWriteError, SIGNIFICANT_DIGITS, SendProbe,
+};
+pub use ring::{TickRecord, TickRecordRing};
+pub use setup::{
+    FifoPrioritySetError, Grant, MemoryLockError, RealtimeRequest, RealtimeSetup, ThreadPinError, available_cpus,
+    lock_memory, pin_current_thread, set_fifo_priority, unlock_memory,
+};
+pub use signal::{StopHandlerInstallError, caught_stop_signal, install_stop_handler, signal_name};
+pub use summary::{MonitorSummary, Percentiles};
+pub use tick::{TickInfo, TickObserver, TickSample};
+pub use worst::{WORST_TICKS, WorstTick, WorstTicks};

@@ -1,0 +1,148 @@
+//! `lamina bench yardstick` tables and `lamina yardstick` (final positions as CSV).
+
+use super::bench_yardstick::{ChecksumRow, YardstickRow, checksum_row, implementations, time_config};
+use super::machine;
+use lamina_core::real::Real;
+use lamina_core::solver::{SimdLevel, Simulation};
+use lamina_core::yardstick::{self, LatticeSize, ReferenceStepper};
+use std::io::Write;
+use std::time::Duration;
+
+/// Options of `lamina bench yardstick`.
+pub struct BenchOptions {
+    pub sizes: Vec<LatticeSize>,
+    pub threads: Vec<usize>,
+    pub precisions: Vec<&'static str>,
+    pub levels: Vec<SimdLevel>,
+    pub reference: bool,
+    pub json: bool,
+    pub batch: Duration,
+}
+
+/// Runs the yardstick benchmark and prints a table (or JSON).
+pub fn bench(opts: &BenchOptions) -> Result<(), String> {
+    let mut rows: Vec<YardstickRow> = Vec::new();
+    let machine = machine::describe();
+    if !opts.json {
+        println!("yardstick scene (shared/bench/lattice-scene.md), symplectic Euler dt = 1e-4 s");
+        println!("machine: {machine}");
+        println!(
+            "{:<7} {:>9} {:>10} {:<5} {:<18} {:>3} {:>10} {:>9} {:>10}",
+            "size", "nodes", "springs", "prec", "implementation", "thr", "ms/step", "ns/spr-st", "Mspring/s"
+        );
+    }
+    for &size in &opts.sizes {
+        for &precision in &opts.precisions {
+            let mut imps = implementations(&opts.levels);
+            if !opts.reference {
+                imps.remove(0);
+            }
+            for imp in imps {
+                let thread_list: Vec<usize> =
+                    if imp == yardstick::YardstickImpl::Reference { vec![1] } else { opts.threads.clone() };
+                for threads in thread_list {
+                    let row = time_config(size, precision, imp, threads, opts.batch);
+                    if !opts.json {
+                        println!(
+                            "{:<7} {:>9} {:>10} {:<5} {:<18} {:>3} {:>10.3} {:>9.3} {:>10.1}",
+                            row.size,
+                            row.nodes,
+                            row.springs,
+                            row.precision,
+                            row.implementation,
+                            row.threads,
+                            row.ms_per_step,
+                            row.ns_per_spring_step,
+                            row.mspring_per_s
+                        );
+                        let _ = std::io::stdout().flush();
+                    }
+                    rows.push(row);
+                }
+            }
+        }
+    }
+    let mut checks: Vec<ChecksumRow> = Vec::new();
+    for &precision in &opts.precisions {
+        if opts.reference {
+            checks.push(checksum_row(precision, yardstick::YardstickImpl::Reference, 1));
+        }
+        let best = *opts.levels.last().unwrap_or(&SimdLevel::detect());
+        for &threads in &opts.threads {
+            checks.push(checksum_row(precision, yardstick::YardstickImpl::Lamina(best), threads));
+        }
+    }
+    if opts.json {
+        let doc = serde_json::json!({ "machine": machine, "timings": rows, "checksum_small_1000_steps": checks });
+        println!("{}", serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?);
+    } else {
+        println!("\nchecksum, small size after 1000 steps (u = x - x0, metres)");
+        println!(
+            "{:<5} {:<18} {:>3} {:>14} {:>12} {:>12} {:>12} {:>12}",
+            "prec", "implementation", "thr", "sum_u.y", "max|u|", "rms|u|", "sum_u.x", "sum_u.z"
+        );
+        for c in &checks {
+            println!(
+                "{:<5} {:<18} {:>3} {:>14.9e} {:>12.6e} {:>12.6e} {:>12.3e} {:>12.3e}",
+                c.precision, c.implementation, c.threads, c.sum_uy, c.max_u, c.rms_u, c.sum_ux, c.sum_uz
+            );
+        }
+    }
+    Ok(())
+}
+
+fn positions<T: Real>(size: LatticeSize, steps: usize, reference: bool, threads: usize) -> Vec<[f64; 3]> {
+    let model = yardstick::lattice_model(size);
+    if reference {
+        let mut r = ReferenceStepper::<T>::new(&model, yardstick::GRAVITY, yardstick::DT).expect("linear springs");
+        for _ in 0..steps {
+            r.step();
+        }
+        r.x.iter().map(|p| p.map(|c| c.to_f64())).collect()
+    } else {
+        let mut s = Simulation::<T>::new(
+            &model,
+            yardstick::lattice_params(threads, SimdLevel::detect()),
+            yardstick::lattice_effects(),
+        )
+        .expect("valid");
+        for _ in 0..steps {
+            s.step();
+        }
+        (0..model.nodes.len()).map(|i| s.state().x.get_f64(i)).collect()
+    }
+}
+
+/// `lamina yardstick`: steps the scene and writes final positions as CSV (`x_m,y_m,z_m`).
+pub fn write_csv(
+    size: LatticeSize,
+    steps: usize,
+    precision: &str,
+    reference: bool,
+    threads: usize,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let pos = match precision {
+        "f64" => positions::<f64>(size, steps, reference, threads),
+        "f32" => positions::<f32>(size, steps, reference, threads),
+        other => return Err(format!("unknown precision '{other}' (f32 or f64)")),
+    };
+    let mut text = String::with_capacity(pos.len() * 64);
+    text.push_str("x_m,y_m,z_m\n");
+    for p in &pos {
+        // Display of f64 prints the shortest string that reads back to the same value.
+        text.push_str(&format!("{},{},{}\n", p[0], p[1], p[2]));
+    }
+    std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))?;
+    let model = yardstick::lattice_model(size);
+    let c = yardstick::checksum(&model, |i| pos[i]);
+    eprintln!(
+        "wrote {} rows to {}; sum_u.y = {:.9e} m, max|u| = {:.6e} m, rms|u| = {:.6e} m",
+        pos.len(),
+        out.display(),
+        c.sum_uy,
+        c.max_u,
+        c.rms_u
+    );
+    Ok(())
+}

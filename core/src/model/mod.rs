@@ -1,0 +1,14 @@
+//! The layered mass-spring model as it is stored and exchanged: nodes, springs, layers,
+//! surfaces. Double precision, SI units. The solver derives its own streaming layout from it.
+
+mod layer;
+mod model_data;
+mod node_set;
+mod spring_set;
+mod surface;
+
+pub use layer::{Layer, Tissue};
+pub use model_data::{Model, ModelValidateError, Provenance};
+pub use node_set::{NodeKind, NodeSet};
+pub use spring_set::SpringSet;
+pub use surface::Surface;

@@ -1,0 +1,132 @@
+//! The whole model and its consistency check.
+
+use super::{Layer, NodeSet, SpringSet, Surface};
+use std::fmt;
+
+/// Where a model came from: generator settings, fit results, as ordered key/value pairs.
+pub type Provenance = Vec<(String, String)>;
+
+/// A layered mass-spring model. SI units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Model {
+    /// Model name.
+    pub name: String,
+    /// Point masses.
+    pub nodes: NodeSet,
+    /// Springs.
+    pub springs: SpringSet,
+    /// Layers, indexed by the nodes' and springs' `layer` fields.
+    pub layers: Vec<Layer>,
+    /// Surfaces (outer skin first).
+    pub surfaces: Vec<Surface>,
+    /// Generator settings, fit results.
+    pub provenance: Provenance,
+}
+
+/// What makes a model unusable.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModelValidateError {
+    /// A node has a non-finite position or a mass that is not finite and positive.
+    BadNode {
+        /// Node index.
+        node: u32,
+    },
+    /// A spring names a node index that does not exist, or both ends are the same node.
+    BadSpringEnds {
+        /// Spring index.
+        spring: u32,
+    },
+    /// A spring's rest length, law or damping is not finite and non-negative.
+    BadSpringParameters {
+        /// Spring index.
+        spring: u32,
+    },
+    /// A node or spring names a layer that does not exist.
+    BadLayer {
+        /// Layer index named.
+        layer: u16,
+    },
+    /// A surface names a node index that does not exist.
+    BadSurface {
+        /// Surface name.
+        surface: String,
+    },
+    /// The per-node or per-spring arrays differ in length.
+    RaggedArrays,
+}
+
+impl fmt::Display for ModelValidateError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::BadNode { node } => write!(f, "node {node}: position not finite or mass not positive"),
+            Self::BadSpringEnds { spring } => write!(f, "spring {spring}: end node missing or both ends equal"),
+            Self::BadSpringParameters { spring } => {
+                write!(f, "spring {spring}: rest length, law or damping not finite and non-negative")
+            }
+            Self::BadLayer { layer } => write!(f, "layer {layer} is named but not defined"),
+            Self::BadSurface { surface } => write!(f, "surface {surface}: names a node that does not exist"),
+            Self::RaggedArrays => write!(f, "per-node or per-spring arrays differ in length"),
+        }
+    }
+}
+
+impl std::error::Error for ModelValidateError {}
+
+impl Model {
+    /// Checks that every index and parameter is usable by the solver.
+    pub fn validate(&self) -> Result<(), ModelValidateError> {
+        let n = self.nodes.len();
+        let s = self.springs.len();
+        let nodes = &self.nodes;
+        let springs = &self.springs;
+        if [nodes.mass.len(), nodes.kind.len(), nodes.layer.len(), nodes.texcoord.len()].iter().any(|&l| l != n)
+            || [
+                springs.b.len(),
+                springs.rest_length.len(),
+                springs.law.len(),
+                springs.damping.len(),
+                springs.layer.len(),
+            ]
+            .iter()
+            .any(|&l| l != s)
+        {
+            return Err(ModelValidateError::RaggedArrays);
+        }
+        let layers = self.layers.len();
+        for i in 0..n {
+            let p = nodes.position[i];
+            let m = nodes.mass[i];
+            if !(p.iter().all(|c| c.is_finite()) && m.is_finite() && m > 0.0) {
+                return Err(ModelValidateError::BadNode { node: i as u32 });
+            }
+            if nodes.layer[i] as usize >= layers {
+                return Err(ModelValidateError::BadLayer { layer: nodes.layer[i] });
+            }
+        }
+        for i in 0..s {
+            let (a, b) = (springs.a[i] as usize, springs.b[i] as usize);
+            if a >= n || b >= n || a == b {
+                return Err(ModelValidateError::BadSpringEnds { spring: i as u32 });
+            }
+            let l0 = springs.rest_length[i];
+            let c = springs.damping[i];
+            if !(l0.is_finite() && l0 >= 0.0 && c.is_finite() && c >= 0.0 && springs.law[i].is_valid(l0)) {
+                return Err(ModelValidateError::BadSpringParameters { spring: i as u32 });
+            }
+            if springs.layer[i] as usize >= layers {
+                return Err(ModelValidateError::BadLayer { layer: springs.layer[i] });
+            }
+        }
+        for surface in &self.surfaces {
+            if surface.triangles.iter().flatten().any(|&v| v as usize >= n) {
+                return Err(ModelValidateError::BadSurface { surface: surface.name.clone() });
+            }
+        }
+        Ok(())
+    }
+
+    /// Index of the first layer with this name.
+    pub fn layer_index(&self, name: &str) -> Option<u16> {
+        self.layers.iter().position(|l| l.name == name).map(|i| i as u16)
+    }
+}

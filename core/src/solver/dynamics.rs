@@ -1,0 +1,228 @@
+//! Forces and accelerations of the model at a given state: the spring pass plus the
+//! effects a scene turned on. Integrators call it; it owns the worker pool and the
+//! per-stage timers.
+
+use super::disjoint::DisjointSlice;
+use super::effects::Effects;
+use super::node_accel::{NodeTerms, accelerations};
+use super::params::IntegrationParameters;
+use super::spring_pass::{NODE_CHUNK, SpringPass};
+use super::vec3s::Vec3s;
+use super::worker_pool::WorkerPool;
+use crate::model::{Model, NodeKind};
+use crate::real::Real;
+use std::time::{Duration, Instant};
+
+/// Positions (m), velocities (m/s) and time (s) of every node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State<T> {
+    /// Positions, m.
+    pub x: Vec3s<T>,
+    /// Velocities, m/s.
+    pub v: Vec3s<T>,
+    /// Simulated time, s.
+    pub time: f64,
+}
+
+impl<T: Real> State<T> {
+    /// Copies `other` without allocating.
+    pub fn copy_from(&mut self, other: &Self) {
+        self.x.copy_from(&other.x);
+        self.v.copy_from(&other.v);
+        self.time = other.time;
+    }
+}
+
+/// Time spent per stage, summed since the last reset.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageCounters {
+    /// Loads and drag handles.
+    pub external: Duration,
+    /// Spring forces (all workers, wall time).
+    pub springs: Duration,
+    /// Per-node accelerations and the integrator's update.
+    pub nodes: Duration,
+    /// Kinematic bone nodes.
+    pub bone: Duration,
+    /// Guard checks, snapshots and recoveries.
+    pub guard: Duration,
+    /// Implicit solve (tangent assembly and conjugate gradients).
+    pub implicit: Duration,
+    /// Conjugate-gradient iterations.
+    pub cg_iterations: u64,
+    /// Frames stepped.
+    pub frames: u64,
+    /// Sub-steps taken.
+    pub substeps: u64,
+}
+
+/// Everything needed to evaluate accelerations.
+pub struct Dynamics<T> {
+    pub(crate) pass: SpringPass<T>,
+    pub(crate) pool: WorkerPool,
+    pub(crate) mass: Vec<T>,
+    pub(crate) free: Vec<T>,
+    pub(crate) rest: Vec3s<T>,
+    pub(crate) kinematic: Vec<u32>,
+    pub(crate) external: Vec3s<T>,
+    pub(crate) effects: Effects,
+    /// Per-stage timers.
+    pub counters: StageCounters,
+}
+
+impl<T: Real> Dynamics<T> {
+    /// Builds the force evaluation for `model` with `effects`.
+    pub fn new(model: &Model, params: &IntegrationParameters, effects: Effects) -> Self {
+        let n = model.nodes.len();
+        let threads = params.threads.max(1);
+        let pass = SpringPass::new(&model.springs, n, threads, params.simd, effects.spring_damping);
+        let free = model
+            .nodes
+            .kind
+            .iter()
+            .map(|k| if !effects.bone || *k == NodeKind::Free { T::ONE } else { T::ZERO })
+            .collect();
+        let kinematic = if effects.bone {
+            (0..n as u32).filter(|&i| model.nodes.kind[i as usize] == NodeKind::Kinematic).collect()
+        } else {
+            Vec::new()
+        };
+        Self {
+            pass,
+            pool: WorkerPool::new(threads, params.pin_workers),
+            mass: model.nodes.mass.iter().map(|&m| T::from_f64(m)).collect(),
+            free,
+            rest: Vec3s::from_f64(&model.nodes.position),
+            kinematic,
+            external: Vec3s::zeros(n),
+            effects,
+            counters: StageCounters::default(),
+        }
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// Whether loads or handles are on.
+    fn has_external(&self) -> bool {
+        !self.effects.loads.is_empty() || !self.effects.handles.is_empty()
+    }
+
+    /// Writes loads and handle forces at state `(x, v)` and time `t` into the external array.
+    fn eval_external(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64) {
+        let start = Instant::now();
+        let ext = &mut self.external;
+        for l in &self.effects.loads {
+            ext.set(l.node as usize, [T::ZERO; 3]);
+        }
+        for h in &self.effects.handles {
+            ext.set(h.node as usize, [T::ZERO; 3]);
+        }
+        for l in &self.effects.loads {
+            let scale = if l.ramp_s > 0.0 { (t / l.ramp_s).min(1.0) } else { 1.0 };
+            let i = l.node as usize;
+            let old = ext.get(i);
+            ext.set(i, [0, 1, 2].map(|c| old[c] + T::from_f64(l.force[c] * scale)));
+        }
+        for h in &self.effects.handles {
+            let i = h.node as usize;
+            let (p, q, old) = (x.get_f64(i), v.get_f64(i), ext.get(i));
+            ext.set(i, [0, 1, 2].map(|c| old[c] + T::from_f64(h.stiffness * (h.target[c] - p[c]) - h.damping * q[c])));
+        }
+        self.counters.external += start.elapsed();
+    }
+
+    fn terms(&self, with_external: bool) -> NodeTerms<'_, T> {
+        NodeTerms {
+            mass: &self.mass,
+            free: &self.free,
+            gravity: self.effects.gravity.map(|g| g.map(T::from_f64)),
+            viscous: self.effects.viscous_damping.map(T::from_f64),
+            external: with_external.then(|| self.external.slices()),
+        }
+    }
+
+    /// Accelerations at state `(x, v)` and time `t` into `a`, m/s² (0 on held nodes).
+    pub fn accelerations_into(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64, a: &mut Vec3s<T>) {
+        let ext = self.has_external();
+        if ext {
+            self.eval_external(x, v, t);
+        }
+        let start = Instant::now();
+        self.pass.accumulate(&self.pool, x, v);
+        let mid = Instant::now();
+        let terms = self.terms(ext);
+        let [ax, ay, az] = a.slices_mut();
+        let out = [DisjointSlice::new(ax), DisjointSlice::new(ay), DisjointSlice::new(az)];
+        self.pass.for_each_block(&self.pool, |range, f| {
+            let mut acc = [[T::ZERO; NODE_CHUNK]; 3];
+            let n = range.len();
+            let vr = [&v.x[range.clone()], &v.y[range.clone()], &v.z[range.clone()]];
+            accelerations(&terms, range.clone(), f, vr, &mut acc);
+            for c in 0..3 {
+                // SAFETY: blocks are disjoint.
+                unsafe { out[c].range_mut(range.clone()) }.copy_from_slice(&acc[c][..n]);
+            }
+        });
+        self.counters.springs += mid - start;
+        self.counters.nodes += mid.elapsed();
+    }
+
+    /// One symplectic Euler sub-step of `h` seconds, fused: forces, then per block
+    /// `v += h a; x += h v`.
+    pub fn symplectic_substep(&mut self, state: &mut State<T>, h: f64) {
+        let ext = self.has_external();
+        if ext {
+            self.eval_external(&state.x, &state.v, state.time);
+        }
+        let start = Instant::now();
+        self.pass.accumulate(&self.pool, &state.x, &state.v);
+        let mid = Instant::now();
+        let terms = self.terms(ext);
+        let h = T::from_f64(h);
+        let [xx, xy, xz] = state.x.slices_mut();
+        let [vx, vy, vz] = state.v.slices_mut();
+        let xs = [DisjointSlice::new(xx), DisjointSlice::new(xy), DisjointSlice::new(xz)];
+        let vs = [DisjointSlice::new(vx), DisjointSlice::new(vy), DisjointSlice::new(vz)];
+        self.pass.for_each_block(&self.pool, |range, f| {
+            let mut acc = [[T::ZERO; NODE_CHUNK]; 3];
+            let n = range.len();
+            // SAFETY: blocks are disjoint, so these ranges are touched by this worker only.
+            let (v, x) = unsafe {
+                (
+                    [vs[0].range_mut(range.clone()), vs[1].range_mut(range.clone()), vs[2].range_mut(range.clone())],
+                    [xs[0].range_mut(range.clone()), xs[1].range_mut(range.clone()), xs[2].range_mut(range.clone())],
+                )
+            };
+            accelerations(&terms, range.clone(), f, [&*v[0], &*v[1], &*v[2]], &mut acc);
+            for ((vc, xc), ac) in v.into_iter().zip(x).zip(&acc) {
+                for i in 0..n {
+                    vc[i] += h * ac[i];
+                    xc[i] += h * vc[i];
+                }
+            }
+        });
+        self.counters.springs += mid - start;
+        self.counters.nodes += mid.elapsed();
+    }
+
+    /// Puts kinematic nodes where the bone motion has them at time `t`.
+    pub fn move_bone(&mut self, state: &mut State<T>, t: f64) {
+        let Some(motion) = self.effects.bone_motion else { return };
+        if self.kinematic.is_empty() {
+            return;
+        }
+        let start = Instant::now();
+        let w = 2.0 * std::f64::consts::PI * motion.frequency_hz;
+        let (s, c) = (w * t).sin_cos();
+        for &k in &self.kinematic {
+            let i = k as usize;
+            let r = self.rest.get_f64(i);
+            state.x.set(i, [0, 1, 2].map(|j| T::from_f64(r[j] + motion.amplitude[j] * s)));
+            state.v.set(i, [0, 1, 2].map(|j| T::from_f64(motion.amplitude[j] * w * c)));
+        }
+        self.counters.bone += start.elapsed();
+    }
+}

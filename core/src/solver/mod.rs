@@ -1,0 +1,34 @@
+//! Time integration of a layered mass-spring model.
+//!
+//! The pipeline, stage by stage, is described on [`Simulation`]. The solver owns no model
+//! data beyond what it derived for speed: the streaming spring layout, node arrays in
+//! precision `T`, and scratch buffers allocated once.
+
+mod critical_step;
+mod disjoint;
+mod dynamics;
+mod effects;
+mod guard;
+mod implicit;
+mod node_accel;
+mod params;
+mod simd;
+mod simulation;
+mod spring_kernels;
+mod spring_layout;
+mod spring_pass;
+mod vec3s;
+mod worker_pool;
+
+pub use critical_step::StabilityEstimate;
+pub use dynamics::{StageCounters, State};
+pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad};
+pub use guard::{GuardEvent, GuardReason, Recovery};
+pub use params::{IntegrationParameters, IntegratorKind, Substeps};
+pub use simd::SimdLevel;
+pub use simulation::{GuardTotals, Simulation, SimulationBuildError};
+pub use spring_kernels::MIN_SPRING_LENGTH;
+pub use spring_layout::{MIN_RUN_LEN, Run, SpringLayout};
+pub use spring_pass::SpringPass;
+pub use vec3s::Vec3s;
+pub use worker_pool::WorkerPool;

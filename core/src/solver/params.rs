@@ -1,0 +1,121 @@
+//! The one parameter struct of the solver.
+
+use super::simd::SimdLevel;
+use std::fmt;
+
+/// Time integration scheme.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum IntegratorKind {
+    /// Semi-implicit (symplectic) Euler: `v += h a(x, v)`, then `x += h v`. First order,
+    /// one force evaluation per sub-step, bounded energy error.
+    SymplecticEuler,
+    /// Classical fourth-order Runge–Kutta: four force evaluations per sub-step.
+    Rk4,
+    /// Linearly implicit backward Euler (one Newton step per sub-step), solved by
+    /// warm-started Jacobi-preconditioned conjugate gradients on the tangent stiffness.
+    /// Unconditionally stable, first order, numerically damped.
+    ImplicitEuler,
+}
+
+impl IntegratorKind {
+    /// Every scheme, in table order.
+    pub const ALL: [IntegratorKind; 3] =
+        [IntegratorKind::SymplecticEuler, IntegratorKind::Rk4, IntegratorKind::ImplicitEuler];
+
+    /// Name used in scenes and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::SymplecticEuler => "symplectic_euler",
+            IntegratorKind::Rk4 => "rk4",
+            IntegratorKind::ImplicitEuler => "implicit_euler",
+        }
+    }
+
+    /// Parses [`IntegratorKind::name`]'s output.
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Theoretical order of global accuracy.
+    pub fn order(self) -> u32 {
+        match self {
+            IntegratorKind::SymplecticEuler | IntegratorKind::ImplicitEuler => 1,
+            IntegratorKind::Rk4 => 4,
+        }
+    }
+
+    /// Whether the scheme has a critical time step.
+    pub fn is_explicit(self) -> bool {
+        !matches!(self, IntegratorKind::ImplicitEuler)
+    }
+}
+
+impl fmt::Display for IntegratorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How a frame step is cut into sub-steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Substeps {
+    /// As few as keep an explicit scheme below its critical step (1 for implicit).
+    Auto,
+    /// Exactly this many (≥ 1), even above the critical step (for stability studies).
+    Fixed(u32),
+}
+
+/// Solver settings. Every field has a unit and a default.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IntegrationParameters {
+    /// Frame step, s: what one call to `step()` advances. Default 1e-3 (1 kHz).
+    pub dt: f64,
+    /// Integration scheme. Default symplectic Euler.
+    pub integrator: IntegratorKind,
+    /// Sub-stepping. Default [`Substeps::Auto`].
+    pub substeps: Substeps,
+    /// Fraction of the critical step that automatic sub-steps use. Default 0.9.
+    pub stability_safety: f64,
+    /// Upper bound on automatic sub-steps per frame. Default 1000.
+    pub max_substeps: u32,
+    /// Conjugate-gradient stop: residual norm relative to the right-hand side. Default 1e-5.
+    pub cg_tolerance: f64,
+    /// Conjugate-gradient iteration cap per sub-step. Default 200.
+    pub cg_max_iterations: u32,
+    /// Rayleigh mass-proportional damping α, 1/s (implicit Euler only). Default 0.
+    pub rayleigh_alpha: f64,
+    /// Rayleigh stiffness-proportional damping β, s (implicit Euler only). Default 0.
+    pub rayleigh_beta: f64,
+    /// Worker threads for the force pass (the caller is one). Default 1.
+    pub threads: usize,
+    /// Pin worker threads to CPUs. Default false.
+    pub pin_workers: bool,
+    /// Kernel instruction set. Default: the widest the CPU has.
+    pub simd: SimdLevel,
+}
+
+impl Default for IntegrationParameters {
+    fn default() -> Self {
+        Self {
+            dt: 1e-3,
+            integrator: IntegratorKind::SymplecticEuler,
+            substeps: Substeps::Auto,
+            stability_safety: 0.9,
+            max_substeps: 1000,
+            cg_tolerance: 1e-5,
+            cg_max_iterations: 200,
+            rayleigh_alpha: 0.0,
+            rayleigh_beta: 0.0,
+            threads: 1,
+            pin_workers: false,
+            simd: SimdLevel::detect(),
+        }
+    }
+}
+
+impl IntegrationParameters {
+    /// Frame rate, Hz (`1 / dt`).
+    pub fn rate_hz(&self) -> f64 {
+        1.0 / self.dt
+    }
+}

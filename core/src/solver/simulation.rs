@@ -1,0 +1,404 @@
+//! A model in motion: state, integrator, effects, guard.
+//!
+//! # How a frame goes
+//! 1. with the guard on, the state is snapshotted;
+//! 2. the frame step `dt` is cut into sub-steps (automatic: below the explicit scheme's
+//!    critical step); each sub-step evaluates loads and handles, spring forces (parallel,
+//!    vectorised), per-node accelerations, and the integrator's update, then moves bone;
+//! 3. the guard checks the result; a bad frame is rolled back and re-stepped with twice
+//!    the sub-steps, then with implicit Euler, and frozen as a last resort; every rollback
+//!    is listed in [`Simulation::quarantine`] for that frame.
+//!
+//! `step()` cannot fail and, with the guard on, never leaves a non-finite state.
+
+use super::critical_step::StabilityEstimate;
+use super::dynamics::{Dynamics, StageCounters, State};
+use super::effects::Effects;
+use super::guard::{GuardEvent, Recovery, inspect_state};
+use super::implicit::ImplicitSolver;
+use super::params::{IntegrationParameters, IntegratorKind, Substeps};
+use super::vec3s::Vec3s;
+use crate::model::{Model, ModelValidateError};
+use crate::real::Real;
+use std::fmt;
+use std::time::Instant;
+
+/// Why a simulation could not be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimulationBuildError {
+    /// The model is inconsistent.
+    Model(ModelValidateError),
+    /// An effect names a node that does not exist.
+    NodeOutOfRange {
+        /// Which effect.
+        effect: &'static str,
+        /// The node index named.
+        node: u32,
+    },
+    /// An effect parameter is NaN, infinite or negative where it must not be.
+    BadEffectValue {
+        /// Which effect.
+        effect: &'static str,
+    },
+    /// The step is not finite and positive, or sub-steps are zero.
+    BadStep,
+}
+
+impl fmt::Display for SimulationBuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Model(e) => write!(f, "invalid model: {e}"),
+            Self::NodeOutOfRange { effect, node } => write!(f, "{effect}: node {node} does not exist"),
+            Self::BadEffectValue { effect } => write!(f, "{effect}: a value is NaN, infinite or out of range"),
+            Self::BadStep => write!(f, "time step must be finite and positive, sub-steps at least 1"),
+        }
+    }
+}
+
+impl std::error::Error for SimulationBuildError {}
+
+impl From<ModelValidateError> for SimulationBuildError {
+    fn from(e: ModelValidateError) -> Self {
+        Self::Model(e)
+    }
+}
+
+/// Totals of guard activity since the start.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GuardTotals {
+    /// Frames rolled back.
+    pub rollbacks: u64,
+    /// Frames saved by more sub-steps.
+    pub by_substeps: u64,
+    /// Frames saved by implicit Euler.
+    pub by_implicit: u64,
+    /// Frames frozen.
+    pub frozen: u64,
+}
+
+struct Rk4Scratch<T> {
+    x0: Vec3s<T>,
+    v0: Vec3s<T>,
+    xs: Vec3s<T>,
+    vs: Vec3s<T>,
+    a: Vec3s<T>,
+    sum_x: Vec3s<T>,
+    sum_v: Vec3s<T>,
+}
+
+/// A model being simulated in precision `T`.
+pub struct Simulation<T: Real> {
+    params: IntegrationParameters,
+    dynamics: Dynamics<T>,
+    state: State<T>,
+    snapshot: State<T>,
+    rk4: Rk4Scratch<T>,
+    implicit: ImplicitSolver<T>,
+    stability: StabilityEstimate,
+    substeps: u32,
+    quarantine: Vec<GuardEvent>,
+    totals: GuardTotals,
+}
+
+fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuildError> {
+    let n = model.nodes.len() as u32;
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    for l in &effects.loads {
+        if l.node >= n {
+            return Err(SimulationBuildError::NodeOutOfRange { effect: "load", node: l.node });
+        }
+        if !(finite(&l.force) && l.ramp_s >= 0.0 && l.ramp_s.is_finite()) {
+            return Err(SimulationBuildError::BadEffectValue { effect: "load" });
+        }
+    }
+    for h in &effects.handles {
+        if h.node >= n {
+            return Err(SimulationBuildError::NodeOutOfRange { effect: "handle", node: h.node });
+        }
+        if !(finite(&h.target)
+            && h.stiffness >= 0.0
+            && h.stiffness.is_finite()
+            && h.damping >= 0.0
+            && h.damping.is_finite())
+        {
+            return Err(SimulationBuildError::BadEffectValue { effect: "handle" });
+        }
+    }
+    if effects.gravity.is_some_and(|g| !finite(&g)) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "gravity" });
+    }
+    if effects.viscous_damping.is_some_and(|a| !(a >= 0.0 && a.is_finite())) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "viscous_damping" });
+    }
+    if effects.bone_motion.is_some_and(|m| !(finite(&m.amplitude) && m.frequency_hz.is_finite())) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "bone_motion" });
+    }
+    if effects.guard.is_some_and(|g| !(g.max_speed > 0.0 && g.max_displacement > 0.0)) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "guard" });
+    }
+    Ok(())
+}
+
+impl<T: Real> Simulation<T> {
+    /// A simulation of `model` at rest.
+    pub fn new(model: &Model, params: IntegrationParameters, effects: Effects) -> Result<Self, SimulationBuildError> {
+        model.validate()?;
+        check_effects(model, &effects)?;
+        if !(params.dt.is_finite() && params.dt > 0.0) || params.substeps == Substeps::Fixed(0) {
+            return Err(SimulationBuildError::BadStep);
+        }
+        let stability = StabilityEstimate::of_model(
+            model,
+            effects.spring_damping,
+            effects.viscous_damping.unwrap_or(0.0),
+            effects.bone,
+        );
+        let dynamics = Dynamics::new(model, &params, effects);
+        let n = model.nodes.len();
+        let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };
+        let z = || Vec3s::zeros(n);
+        let rk4 = Rk4Scratch { x0: z(), v0: z(), xs: z(), vs: z(), a: z(), sum_x: z(), sum_v: z() };
+        let implicit = ImplicitSolver::new(&dynamics);
+        let mut sim = Self {
+            snapshot: state.clone(),
+            state,
+            dynamics,
+            rk4,
+            implicit,
+            stability,
+            substeps: 1,
+            quarantine: Vec::with_capacity(8),
+            totals: GuardTotals::default(),
+            params,
+        };
+        sim.substeps = sim.auto_substeps(sim.params.integrator);
+        Ok(sim)
+    }
+
+    fn auto_substeps(&self, integrator: IntegratorKind) -> u32 {
+        match self.params.substeps {
+            Substeps::Fixed(n) => n.max(1),
+            Substeps::Auto => {
+                let h = self.stability.critical_step(integrator) * self.params.stability_safety;
+                if !h.is_finite() {
+                    1
+                } else {
+                    ((self.params.dt / h).ceil() as u32).clamp(1, self.params.max_substeps.max(1))
+                }
+            }
+        }
+    }
+
+    /// Current state.
+    pub fn state(&self) -> &State<T> {
+        &self.state
+    }
+
+    /// Current state, to set initial conditions or (tests) to corrupt it.
+    pub fn state_mut(&mut self) -> &mut State<T> {
+        &mut self.state
+    }
+
+    /// Solver settings.
+    pub fn params(&self) -> &IntegrationParameters {
+        &self.params
+    }
+
+    /// The effects in the loop. Loads and handle targets may be changed between steps;
+    /// the guard catches non-finite values put here.
+    pub fn effects_mut(&mut self) -> &mut Effects {
+        &mut self.dynamics.effects
+    }
+
+    /// The effects in the loop.
+    pub fn effects(&self) -> &Effects {
+        &self.dynamics.effects
+    }
+
+    /// Sub-steps per frame.
+    pub fn substeps(&self) -> u32 {
+        self.substeps
+    }
+
+    /// The stiffest mode's estimate.
+    pub fn stability(&self) -> StabilityEstimate {
+        self.stability
+    }
+
+    /// Critical step of the configured integrator, s.
+    pub fn critical_step(&self) -> f64 {
+        self.stability.critical_step(self.params.integrator)
+    }
+
+    /// Rollbacks of the last frame.
+    pub fn quarantine(&self) -> &[GuardEvent] {
+        &self.quarantine
+    }
+
+    /// Guard totals since the start.
+    pub fn guard_totals(&self) -> GuardTotals {
+        self.totals
+    }
+
+    /// Per-stage time since the last [`Simulation::reset_counters`].
+    pub fn counters(&self) -> &StageCounters {
+        &self.dynamics.counters
+    }
+
+    /// Zeroes the per-stage timers.
+    pub fn reset_counters(&mut self) {
+        self.dynamics.counters = StageCounters::default();
+    }
+
+    /// CG iterations and relative residual of the last implicit solve.
+    pub fn last_cg(&self) -> (u32, f64) {
+        (self.implicit.last_iterations, self.implicit.last_residual)
+    }
+
+    /// Rest positions, m.
+    pub fn rest_positions(&self) -> &Vec3s<T> {
+        &self.dynamics.rest
+    }
+
+    /// Advances one frame of `params.dt` seconds.
+    pub fn step(&mut self) {
+        self.quarantine.clear();
+        let guard = self.dynamics.effects.guard;
+        if guard.is_some() {
+            let t = Instant::now();
+            self.snapshot.copy_from(&self.state);
+            self.dynamics.counters.guard += t.elapsed();
+        }
+        self.advance(self.params.integrator, self.substeps);
+        self.dynamics.counters.frames += 1;
+        let Some(settings) = guard else { return };
+        let t = Instant::now();
+        let Some((reason, node)) = inspect_state(&self.state, &self.dynamics.rest, &settings) else {
+            self.dynamics.counters.guard += t.elapsed();
+            return;
+        };
+        self.totals.rollbacks += 1;
+        let time = self.snapshot.time;
+        let mut recovery = Recovery::Frozen;
+        if self.params.integrator.is_explicit() {
+            let mut n = self.substeps;
+            for _ in 0..settings.retries {
+                n = n.saturating_mul(2);
+                self.state.copy_from(&self.snapshot);
+                self.advance(self.params.integrator, n);
+                if inspect_state(&self.state, &self.dynamics.rest, &settings).is_none() {
+                    recovery = Recovery::Substeps(n);
+                    break;
+                }
+            }
+        }
+        if recovery == Recovery::Frozen {
+            self.state.copy_from(&self.snapshot);
+            self.advance(IntegratorKind::ImplicitEuler, 1);
+            if inspect_state(&self.state, &self.dynamics.rest, &settings).is_none() {
+                recovery = Recovery::Implicit;
+            }
+        }
+        match recovery {
+            Recovery::Substeps(_) => self.totals.by_substeps += 1,
+            Recovery::Implicit => self.totals.by_implicit += 1,
+            Recovery::Frozen => {
+                self.state.copy_from(&self.snapshot);
+                self.state.v.fill_zero();
+                self.state.time += self.params.dt;
+                self.totals.frozen += 1;
+            }
+        }
+        if self.quarantine.len() < self.quarantine.capacity() {
+            self.quarantine.push(GuardEvent { time, reason, node, recovery });
+        }
+        self.dynamics.counters.guard += t.elapsed();
+    }
+
+    fn advance(&mut self, integrator: IntegratorKind, substeps: u32) {
+        let h = self.params.dt / substeps as f64;
+        let start_time = self.state.time;
+        for k in 0..substeps {
+            match integrator {
+                IntegratorKind::SymplecticEuler => self.dynamics.symplectic_substep(&mut self.state, h),
+                IntegratorKind::Rk4 => self.rk4_substep(h),
+                IntegratorKind::ImplicitEuler => {
+                    self.implicit.substep(&mut self.dynamics, &self.params, &mut self.state, h)
+                }
+            }
+            self.state.time = start_time + h * (k + 1) as f64;
+            let now = self.state.time;
+            self.dynamics.move_bone(&mut self.state, now);
+            self.dynamics.counters.substeps += 1;
+        }
+    }
+
+    fn rk4_substep(&mut self, h: f64) {
+        let s = &mut self.rk4;
+        let t0 = self.state.time;
+        s.x0.copy_from(&self.state.x);
+        s.v0.copy_from(&self.state.v);
+        s.sum_x.fill_zero();
+        s.sum_v.fill_zero();
+        let stages = [(0.0, 1.0), (0.5, 2.0), (0.5, 2.0), (1.0, 1.0)];
+        for (k, &(c, w)) in stages.iter().enumerate() {
+            // Stage state: x0 + c h kx, v0 + c h kv (stage 0 is the start itself).
+            if k == 0 {
+                s.xs.copy_from(&s.x0);
+                s.vs.copy_from(&s.v0);
+            } else {
+                let ch = T::from_f64(c * h);
+                for (dst, (base, slope)) in [
+                    (&mut s.xs.x, (&s.x0.x, &s.vs.x)),
+                    (&mut s.xs.y, (&s.x0.y, &s.vs.y)),
+                    (&mut s.xs.z, (&s.x0.z, &s.vs.z)),
+                ] {
+                    for i in 0..dst.len() {
+                        dst[i] = base[i] + ch * slope[i];
+                    }
+                }
+                for (dst, (base, slope)) in [
+                    (&mut s.vs.x, (&s.v0.x, &s.a.x)),
+                    (&mut s.vs.y, (&s.v0.y, &s.a.y)),
+                    (&mut s.vs.z, (&s.v0.z, &s.a.z)),
+                ] {
+                    for i in 0..dst.len() {
+                        dst[i] = base[i] + ch * slope[i];
+                    }
+                }
+            }
+            self.dynamics.accelerations_into(&s.xs, &s.vs, t0 + c * h, &mut s.a);
+            let w = T::from_f64(w);
+            for (acc, add) in [(&mut s.sum_x.x, &s.vs.x), (&mut s.sum_x.y, &s.vs.y), (&mut s.sum_x.z, &s.vs.z)] {
+                for i in 0..acc.len() {
+                    acc[i] += w * add[i];
+                }
+            }
+            for (acc, add) in [(&mut s.sum_v.x, &s.a.x), (&mut s.sum_v.y, &s.a.y), (&mut s.sum_v.z, &s.a.z)] {
+                for i in 0..acc.len() {
+                    acc[i] += w * add[i];
+                }
+            }
+        }
+        let h6 = T::from_f64(h / 6.0);
+        let free = &self.dynamics.free;
+        for (dst, (base, sum)) in [
+            (&mut self.state.x.x, (&s.x0.x, &s.sum_x.x)),
+            (&mut self.state.x.y, (&s.x0.y, &s.sum_x.y)),
+            (&mut self.state.x.z, (&s.x0.z, &s.sum_x.z)),
+        ] {
+            for i in 0..dst.len() {
+                dst[i] = base[i] + free[i] * h6 * sum[i];
+            }
+        }
+        for (dst, (base, sum)) in [
+            (&mut self.state.v.x, (&s.v0.x, &s.sum_v.x)),
+            (&mut self.state.v.y, (&s.v0.y, &s.sum_v.y)),
+            (&mut self.state.v.z, (&s.v0.z, &s.sum_v.z)),
+        ] {
+            for i in 0..dst.len() {
+                dst[i] = base[i] + h6 * sum[i];
+            }
+        }
+    }
+}

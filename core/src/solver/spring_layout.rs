@@ -1,0 +1,392 @@
+//! The solver's streaming order of springs.
+//!
+//! A model lists springs in file order. Mass-spring models built on grids (the yardstick
+//! lattice, the generator's limbs) contain long *runs*: springs `(a0+i, b0+i)` for
+//! `i = 0..len`, i.e. consecutive first nodes and a constant index offset. Inside a run every
+//! load and every force accumulation is a unit-stride slice, so the force kernel is a plain
+//! loop that vectorises with no gathers, no scatters and no conflicts. Springs that belong to
+//! no run of at least [`MIN_RUN_LEN`] go to a *loose* list handled spring by spring.
+//!
+//! Runs are sorted by first node, so one sweep walks memory forward, and they are cut into
+//! per-thread parts of equal spring counts; each part accumulates into its own window of
+//! the force arrays (no atomics), and the windows are summed per node afterwards.
+
+use crate::law::SpringLaw;
+use crate::model::SpringSet;
+use crate::real::Real;
+use std::collections::HashMap;
+
+/// Shortest run kept as a run; shorter ones go to the loose list. Default 4.
+pub const MIN_RUN_LEN: usize = 4;
+
+/// Springs `(a0 + i, b0 + i)` for `i in 0..len`, whose parameters sit at `first + i`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    /// First node of the first spring.
+    pub a0: u32,
+    /// Second node of the first spring.
+    pub b0: u32,
+    /// Number of springs.
+    pub len: u32,
+    /// Index of the first spring's parameters in the block's parameter arrays.
+    pub first: u32,
+}
+
+/// Per-spring parameters of linear springs, in streaming order.
+#[derive(Clone, Debug, Default)]
+pub struct LinearParams<T> {
+    /// Rest length, m.
+    pub rest: Vec<T>,
+    /// Stiffness, N/m.
+    pub k: Vec<T>,
+    /// Dashpot, N·s/m.
+    pub c: Vec<T>,
+}
+
+/// Per-spring parameters of bilinear springs, in streaming order.
+#[derive(Clone, Debug, Default)]
+pub struct BilinearParams<T> {
+    /// Rest length, m.
+    pub rest: Vec<T>,
+    /// First-phase stiffness, N/m.
+    pub k1: Vec<T>,
+    /// Second-phase stiffness, N/m.
+    pub k2: Vec<T>,
+    /// Compression stiffness, N/m.
+    pub kc: Vec<T>,
+    /// Stretch at the turning point, `TurnLen − RestLen`, m.
+    pub turn: Vec<T>,
+    /// Dashpot, N·s/m.
+    pub c: Vec<T>,
+}
+
+/// One thread's share of a block.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Part {
+    /// Range of runs.
+    pub runs: std::ops::Range<usize>,
+    /// Range of loose springs.
+    pub loose: std::ops::Range<usize>,
+}
+
+/// Springs of one law family in streaming order.
+#[derive(Clone, Debug, Default)]
+pub struct SpringBlock<P> {
+    /// Runs, sorted by `a0`.
+    pub runs: Vec<Run>,
+    /// Loose springs' end nodes; their parameters follow the runs' in `params`.
+    pub loose_a: Vec<u32>,
+    /// Second end nodes of loose springs.
+    pub loose_b: Vec<u32>,
+    /// Index in `params` of the first loose spring.
+    pub loose_first: usize,
+    /// Parameters, one entry per spring: runs' springs first, then loose ones.
+    pub params: P,
+    /// Canonical (model) index of each spring in `params` order.
+    pub source: Vec<u32>,
+    /// Per-thread parts.
+    pub parts: Vec<Part>,
+}
+
+impl<P> SpringBlock<P> {
+    /// Number of springs in the block.
+    pub fn len(&self) -> usize {
+        self.source.len()
+    }
+
+    /// True when the block has no springs.
+    pub fn is_empty(&self) -> bool {
+        self.source.is_empty()
+    }
+
+    /// Lowest and one-past-highest node touched by part `t`.
+    pub fn part_node_bounds(&self, t: usize) -> Option<(u32, u32)> {
+        let part = self.parts.get(t)?;
+        let mut lo = u32::MAX;
+        let mut hi = 0u32;
+        for r in &self.runs[part.runs.clone()] {
+            lo = lo.min(r.a0.min(r.b0));
+            hi = hi.max(r.a0.max(r.b0) + r.len);
+        }
+        for i in part.loose.clone() {
+            let (a, b) = (self.loose_a[i], self.loose_b[i]);
+            lo = lo.min(a.min(b));
+            hi = hi.max(a.max(b) + 1);
+        }
+        (lo < hi).then_some((lo, hi))
+    }
+}
+
+/// All springs of a model in the solver's streaming layout.
+#[derive(Clone, Debug, Default)]
+pub struct SpringLayout<T> {
+    /// Linear springs.
+    pub linear: SpringBlock<LinearParams<T>>,
+    /// Bilinear springs.
+    pub bilinear: SpringBlock<BilinearParams<T>>,
+    /// Number of threads the parts were cut for.
+    pub threads: usize,
+}
+
+/// Largest gap in first nodes that a run bridges with null springs (zero stiffness and
+/// damping between two real nodes). Bridging the row ends of a grid turns many short runs
+/// into a few long ones at the cost of about one null spring per row. Default 2.
+pub const MAX_BRIDGED_GAP: u32 = 2;
+
+/// Runs are cut into segments of at most this many springs (a multiple of every vector
+/// width) and the segments of all offsets are interleaved by first node, so one forward
+/// sweep keeps the touched nodes in cache. Default 128.
+pub const SEGMENT_LEN: u32 = 128;
+
+/// Marks a null spring in [`SpringBlock::source`].
+pub const NULL_SPRING: u32 = u32::MAX;
+
+/// A run before parameters are attached: members are canonical indices, or
+/// [`NULL_SPRING`] for bridging springs.
+type RawRun = (Run, Vec<u32>);
+
+/// Orders springs `(a, b, canonical index)` (with `a < b`) into runs; returns the runs and
+/// the loose springs' canonical indices in storage order.
+fn find_runs(pairs: &[(u32, u32, u32)]) -> (Vec<RawRun>, Vec<u32>) {
+    let mut by_offset: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+    for &(a, b, src) in pairs {
+        by_offset.entry(b - a).or_default().push((a, src));
+    }
+    let mut runs: Vec<RawRun> = Vec::new();
+    let mut loose = Vec::new();
+    let mut offsets: Vec<u32> = by_offset.keys().copied().collect();
+    offsets.sort_unstable();
+    for off in offsets {
+        let mut list = by_offset.remove(&off).unwrap_or_default();
+        list.sort_unstable();
+        let mut start = 0;
+        while start < list.len() {
+            // Extend while the next first node follows within the bridged gap.
+            let mut members = vec![list[start].1];
+            let mut end = start + 1;
+            while end < list.len()
+                && list[end].0 > list[end - 1].0
+                && list[end].0 - list[end - 1].0 <= MAX_BRIDGED_GAP + 1
+            {
+                let gap = (list[end].0 - list[end - 1].0 - 1) as usize;
+                members.extend(std::iter::repeat_n(NULL_SPRING, gap));
+                members.push(list[end].1);
+                end += 1;
+            }
+            if end - start >= MIN_RUN_LEN {
+                let a0 = list[start].0;
+                let mut cut = 0usize;
+                while cut < members.len() {
+                    let len = (members.len() - cut).min(SEGMENT_LEN as usize);
+                    let a = a0 + cut as u32;
+                    let run = Run { a0: a, b0: a + off, len: len as u32, first: 0 };
+                    runs.push((run, members[cut..cut + len].to_vec()));
+                    cut += len;
+                }
+            } else {
+                loose.extend_from_slice(&list[start..end]);
+            }
+            start = end;
+        }
+    }
+    runs.sort_by_key(|(r, _)| (r.a0, r.b0));
+    loose.sort_unstable();
+    (runs, loose.into_iter().map(|p| p.1).collect())
+}
+
+/// Cuts `runs` and `loose` into `threads` parts of about equal spring counts.
+fn cut_parts(runs: &[Run], loose_len: usize, threads: usize) -> Vec<Part> {
+    let threads = threads.max(1);
+    let total: usize = runs.iter().map(|r| r.len as usize).sum::<usize>() + loose_len;
+    let mut parts = Vec::with_capacity(threads);
+    let mut run_start = 0;
+    let mut loose_start = 0;
+    let mut done = 0usize;
+    for t in 0..threads {
+        let target = total * (t + 1) / threads;
+        let mut run_end = run_start;
+        while run_end < runs.len() && done + (runs[run_end].len as usize) / 2 < target {
+            done += runs[run_end].len as usize;
+            run_end += 1;
+        }
+        let loose_target = loose_len * (t + 1) / threads;
+        let loose_end = if t + 1 == threads { loose_len } else { loose_target };
+        let run_end = if t + 1 == threads { runs.len() } else { run_end };
+        done += loose_end - loose_start;
+        parts.push(Part { runs: run_start..run_end, loose: loose_start..loose_end });
+        run_start = run_end;
+        loose_start = loose_end;
+    }
+    parts
+}
+
+/// Builds a block: `select` keeps the springs of this family; `push` appends a kept
+/// spring's parameters (`None`: a null spring).
+fn build_block<P: Default>(
+    springs: &SpringSet,
+    threads: usize,
+    select: impl Fn(&SpringLaw) -> bool,
+    mut push: impl FnMut(&mut P, Option<usize>),
+) -> SpringBlock<P> {
+    let pairs: Vec<(u32, u32, u32)> = (0..springs.len())
+        .filter(|&i| select(&springs.law[i]))
+        .map(|i| {
+            let (a, b) = (springs.a[i], springs.b[i]);
+            (a.min(b), a.max(b), i as u32)
+        })
+        .collect();
+    let (runs, loose) = find_runs(&pairs);
+    let mut block = SpringBlock::<P>::default();
+    for (mut run, members) in runs {
+        run.first = block.source.len() as u32;
+        for src in members {
+            push(&mut block.params, (src != NULL_SPRING).then_some(src as usize));
+            block.source.push(src);
+        }
+        block.runs.push(run);
+    }
+    block.loose_first = block.source.len();
+    for src in loose {
+        let (a, b) = (springs.a[src as usize], springs.b[src as usize]);
+        block.loose_a.push(a.min(b));
+        block.loose_b.push(a.max(b));
+        push(&mut block.params, Some(src as usize));
+        block.source.push(src);
+    }
+    block.parts = cut_parts(&block.runs, block.loose_a.len(), threads);
+    block
+}
+
+impl<T: Real> SpringLayout<T> {
+    /// Streaming layout of `springs`, cut into `threads` parts.
+    pub fn new(springs: &SpringSet, threads: usize) -> Self {
+        let r = |v: f64| T::from_f64(v);
+        let linear = build_block::<LinearParams<T>>(
+            springs,
+            threads,
+            |law| matches!(law, SpringLaw::Linear { .. }),
+            |p, i| {
+                let (rest, k, c) = match i.map(|i| (springs.rest_length[i], springs.law[i], springs.damping[i])) {
+                    Some((rest, SpringLaw::Linear { stiffness }, c)) => (rest, stiffness, c),
+                    _ => (0.0, 0.0, 0.0),
+                };
+                p.rest.push(r(rest));
+                p.k.push(r(k));
+                p.c.push(r(c));
+            },
+        );
+        let bilinear = build_block::<BilinearParams<T>>(
+            springs,
+            threads,
+            |law| matches!(law, SpringLaw::Bilinear(_)),
+            |p, i| {
+                let (rest, b, c) = match i.map(|i| (springs.rest_length[i], springs.law[i], springs.damping[i])) {
+                    Some((rest, SpringLaw::Bilinear(b), c)) => (rest, b, c),
+                    _ => (0.0, crate::law::Bilinear { k1: 0.0, k2: 0.0, turn_length: 0.0, k_compression: 0.0 }, 0.0),
+                };
+                p.rest.push(r(rest));
+                p.k1.push(r(b.k1));
+                p.k2.push(r(b.k2));
+                p.kc.push(r(b.k_compression));
+                p.turn.push(r(b.turn_length - rest));
+                p.c.push(r(c));
+            },
+        );
+        Self { linear, bilinear, threads: threads.max(1) }
+    }
+
+    /// Total number of springs in the layout, null springs included.
+    pub fn len(&self) -> usize {
+        self.linear.len() + self.bilinear.len()
+    }
+
+    /// True when there are no springs.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Fraction of layout entries that sit in runs (the rest are loose).
+    pub fn run_fraction(&self) -> f64 {
+        let in_runs = self.linear.loose_first + self.bilinear.loose_first;
+        if self.is_empty() { 1.0 } else { in_runs as f64 / self.len() as f64 }
+    }
+
+    /// Null springs added to bridge gaps in runs.
+    pub fn null_springs(&self) -> usize {
+        let count = |src: &[u32]| src.iter().filter(|&&s| s == NULL_SPRING).count();
+        count(&self.linear.source) + count(&self.bilinear.source)
+    }
+
+    /// Node window `[lo, hi)` that thread `t` accumulates forces into.
+    pub fn window(&self, t: usize) -> (u32, u32) {
+        let a = self.linear.part_node_bounds(t);
+        let b = self.bilinear.part_node_bounds(t);
+        match (a, b) {
+            (Some(a), Some(b)) => (a.0.min(b.0), a.1.max(b.1)),
+            (Some(w), None) | (None, Some(w)) => w,
+            (None, None) => (0, 0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chain(n: u32) -> SpringSet {
+        let mut s = SpringSet::default();
+        for i in 0..n - 1 {
+            s.push(i + 1, i, 1.0, SpringLaw::Linear { stiffness: 1.0 }, 0.0, 0);
+        }
+        s.push(0, n - 1, 1.0, SpringLaw::Linear { stiffness: 2.0 }, 0.0, 0);
+        s
+    }
+
+    #[test]
+    fn layout_chain_forms_one_run_and_one_loose_works() {
+        let layout = SpringLayout::<f64>::new(&chain(10), 1);
+        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 9, first: 0 }]);
+        assert_eq!(layout.linear.loose_a, vec![0]);
+        assert_eq!(layout.linear.loose_b, vec![9]);
+        assert_eq!(layout.linear.params.k[9], 2.0);
+        let mut src = layout.linear.source.clone();
+        src.sort_unstable();
+        assert_eq!(src, (0..10).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn layout_bridges_small_gaps_with_null_springs_works() {
+        let mut s = SpringSet::default();
+        for a in [0u32, 1, 2, 5, 6, 7] {
+            s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
+        }
+        let layout = SpringLayout::<f64>::new(&s, 1);
+        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 8, first: 0 }]);
+        assert_eq!(layout.null_springs(), 2);
+        assert_eq!(&layout.linear.params.k[3..5], &[0.0, 0.0]);
+        assert_eq!(&layout.linear.params.c[3..5], &[0.0, 0.0]);
+        assert_eq!(layout.linear.source[3], NULL_SPRING);
+    }
+
+    #[test]
+    fn layout_long_runs_are_cut_into_segments_works() {
+        let layout = SpringLayout::<f32>::new(&chain(1000), 1);
+        assert_eq!(layout.linear.runs.len(), 999usize.div_ceil(SEGMENT_LEN as usize));
+        assert!(layout.linear.runs.iter().all(|r| r.len <= SEGMENT_LEN));
+        assert!(layout.linear.runs.windows(2).all(|w| w[0].a0 + w[0].len == w[1].a0));
+    }
+
+    #[test]
+    fn layout_parts_cover_every_spring_once_works() {
+        let layout = SpringLayout::<f32>::new(&chain(1000), 3);
+        let parts = &layout.linear.parts;
+        assert_eq!(parts.len(), 3);
+        assert_eq!(parts[0].runs.start, 0);
+        assert_eq!(parts[2].runs.end, layout.linear.runs.len());
+        assert_eq!(parts[2].loose.end, layout.linear.loose_a.len());
+        for w in parts.windows(2) {
+            assert_eq!(w[0].runs.end, w[1].runs.start);
+            assert_eq!(w[0].loose.end, w[1].loose.start);
+        }
+    }
+}

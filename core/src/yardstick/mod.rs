@@ -1,0 +1,12 @@
+//! The yardstick scene (`shared/bench/lattice-scene.md`): a layered block of
+//! `NX × NY × NZ` nodes that other simulators were timed on. Built exactly as specified,
+//! spring order included, and stepped either by Lamina's solver or by the plain scalar loop
+//! of the specification, side by side.
+
+mod lattice;
+mod reference;
+mod run;
+
+pub use lattice::{LatticeSize, lattice_model, spring_count};
+pub use reference::ReferenceStepper;
+pub use run::{Checksum, DT, GRAVITY, YardstickImpl, checksum, lattice_effects, lattice_params, run_gravity};

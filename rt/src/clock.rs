@@ -1,0 +1,256 @@
+//! Time sources behind one small trait: [`Clock`].
+//!
+//! All times are `u64` nanoseconds on a monotonic time line whose origin is
+//! unspecified (boot for [`MonotonicClock`], whatever the test chose for
+//! [`FakeClock`]). Only differences and comparisons are meaningful.
+//!
+//! # Examples
+//!
+//! ```
+//! use lamina_rt::{Clock, FakeClock};
+//!
+//! let clock = FakeClock::new(1_000);
+//! clock.sleep_until(5_000); // jumps, does not block
+//! assert_eq!(clock.now(), 5_000);
+//! clock.advance(250); // "compute" for 250 ns
+//! assert_eq!(clock.now(), 5_250);
+//! ```
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A monotonic time source that can sleep until an absolute deadline.
+///
+/// ## Correctness
+///
+/// - `now()` never goes backwards.
+/// - `sleep_until(d)` returns no earlier than `d` (as seen by `now()`); it
+///   returns at once if `d` is already in the past.
+/// - Both must be usable in a real-time loop: no allocation, no locks.
+pub trait Clock {
+    /// Current time, ns since an unspecified fixed origin.
+    fn now(&self) -> u64;
+
+    /// Blocks (or, for a fake clock, jumps) until `now() >= deadline_ns`.
+    fn sleep_until(&self, deadline_ns: u64);
+}
+
+impl<C: Clock + ?Sized> Clock for &C {
+    fn now(&self) -> u64 {
+        (**self).now()
+    }
+
+    fn sleep_until(&self, deadline_ns: u64) {
+        (**self).sleep_until(deadline_ns);
+    }
+}
+
+/// Default busy-spin window at the end of [`MonotonicClock::sleep_until`]: 50 µs, in ns.
+pub const DEFAULT_SPIN_NS: u64 = 50_000;
+
+const NS_PER_S: u64 = 1_000_000_000;
+
+/// The real clock: `CLOCK_MONOTONIC`, read with `clock_gettime` (vDSO, no
+/// system call on Linux).
+///
+/// [`sleep_until`](Clock::sleep_until) sleeps with
+/// `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` until `spin_ns` before
+/// the deadline, then busy-spins on `now()` for the rest. The absolute sleep
+/// means an interrupted or late sleep never shifts later deadlines; the spin
+/// hides the kernel's wake-up latency (typically 5-60 µs) at the cost of up
+/// to `spin_ns` of CPU per period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MonotonicClock {
+    spin_ns: u64,
+}
+
+impl MonotonicClock {
+    /// A monotonic clock with the default spin window, [`DEFAULT_SPIN_NS`] (50 µs).
+    pub const fn new() -> Self {
+        Self { spin_ns: DEFAULT_SPIN_NS }
+    }
+
+    /// Sets the busy-spin window before each deadline, ns. `0` sleeps all the
+    /// way in the kernel (no spin; lateness then includes the kernel's wake-up
+    /// latency). Default [`DEFAULT_SPIN_NS`].
+    #[must_use]
+    pub const fn with_spin_ns(mut self, spin_ns: u64) -> Self {
+        self.spin_ns = spin_ns;
+        self
+    }
+
+    /// The busy-spin window before each deadline, ns.
+    pub const fn spin_ns(&self) -> u64 {
+        self.spin_ns
+    }
+}
+
+impl Default for MonotonicClock {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn ns_to_timespec(ns: u64) -> libc::timespec {
+    libc::timespec {
+        // Fits: u64 ns / 1e9 < 2^35, well inside time_t.
+        tv_sec: (ns / NS_PER_S) as libc::time_t,
+        tv_nsec: (ns % NS_PER_S) as libc::c_long,
+    }
+}
+
+impl Clock for MonotonicClock {
+    fn now(&self) -> u64 {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always
+        // exists on Linux, so the call cannot fail.
+        unsafe {
+            libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts);
+        }
+        ts.tv_sec as u64 * NS_PER_S + ts.tv_nsec as u64
+    }
+
+    fn sleep_until(&self, deadline_ns: u64) {
+        let coarse = deadline_ns.saturating_sub(self.spin_ns);
+        if coarse > self.now() {
+            let ts = ns_to_timespec(coarse);
+            loop {
+                // SAFETY: `ts` is a valid timespec; the remaining-time pointer
+                // may be null with TIMER_ABSTIME.
+                let rc = unsafe {
+                    libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut())
+                };
+                // clock_nanosleep returns the error number (not -1/errno).
+                // Only EINTR is worth a retry: with an absolute deadline a
+                // retry cannot oversleep.
+                if rc != libc::EINTR {
+                    break;
+                }
+            }
+        }
+        while self.now() < deadline_ns {
+            std::hint::spin_loop();
+        }
+    }
+}
+
+/// A per-tick compute-time model for [`FakeClock`]: maps a tick number to the
+/// ns of simulated compute for that tick.
+pub type ComputeModel = dyn Fn(u64) -> u64 + Send + Sync;
+
+/// A clock for tests: time moves only when told to.
+///
+/// - [`now`](Clock::now) returns the current fake time, ns.
+/// - [`sleep_until`](Clock::sleep_until) jumps straight to the deadline
+///   (never backwards).
+/// - [`advance`](Self::advance) moves time forward, e.g. to stand for
+///   compute time inside a loop body.
+/// - A compute model ([`with_compute`](Self::with_compute),
+///   [`with_compute_script`](Self::with_compute_script)) gives each tick a
+///   scripted compute time; the body calls [`spend`](Self::spend) with its
+///   tick number to apply it. This is how tests create overruns
+///   deterministically.
+///
+/// Cloning is cheap and clones share the same time line (an `Arc`), so a test
+/// can give one clone to a [`FixedRateLoop`](crate::FixedRateLoop) and move
+/// another into the loop body. No operation allocates or locks.
+#[derive(Clone)]
+pub struct FakeClock {
+    now_ns: Arc<AtomicU64>,
+    compute: Option<Arc<ComputeModel>>,
+}
+
+impl std::fmt::Debug for FakeClock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FakeClock")
+            .field("now_ns", &self.now())
+            .field("has_compute_model", &self.compute.is_some())
+            .finish()
+    }
+}
+
+impl FakeClock {
+    /// A fake clock reading `start_ns`, with no compute model (every
+    /// [`spend`](Self::spend) is 0 ns).
+    pub fn new(start_ns: u64) -> Self {
+        Self { now_ns: Arc::new(AtomicU64::new(start_ns)), compute: None }
+    }
+
+    /// Sets the compute model: `model(tick)` is the ns that
+    /// [`spend(tick)`](Self::spend) advances the clock by.
+    #[must_use]
+    pub fn with_compute(mut self, model: impl Fn(u64) -> u64 + Send + Sync + 'static) -> Self {
+        self.compute = Some(Arc::new(model));
+        self
+    }
+
+    /// Sets a scripted compute model: tick `i` spends `script[i]` ns; ticks
+    /// past the end of the script spend 0 ns.
+    #[must_use]
+    pub fn with_compute_script(self, script: Vec<u64>) -> Self {
+        self.with_compute(move |tick| usize::try_from(tick).ok().and_then(|i| script.get(i).copied()).unwrap_or(0))
+    }
+
+    /// Moves time forward by `ns`.
+    pub fn advance(&self, ns: u64) {
+        self.now_ns.fetch_add(ns, Ordering::Relaxed);
+    }
+
+    /// Applies the compute model for `tick`: advances by `model(tick)` ns and
+    /// returns that amount (0 without a model).
+    pub fn spend(&self, tick: u64) -> u64 {
+        let ns = self.compute.as_ref().map_or(0, |model| model(tick));
+        self.advance(ns);
+        ns
+    }
+}
+
+impl Clock for FakeClock {
+    fn now(&self) -> u64 {
+        self.now_ns.load(Ordering::Relaxed)
+    }
+
+    fn sleep_until(&self, deadline_ns: u64) {
+        self.now_ns.fetch_max(deadline_ns, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fake_clock_sleep_never_goes_back_works() {
+        let clock = FakeClock::new(100);
+        clock.sleep_until(50);
+        assert_eq!(clock.now(), 100);
+        clock.sleep_until(300);
+        assert_eq!(clock.now(), 300);
+    }
+
+    #[test]
+    fn fake_clock_compute_script_works() {
+        let clock = FakeClock::new(0).with_compute_script(vec![10, 20]);
+        let shared = clock.clone();
+        assert_eq!(clock.spend(0), 10);
+        assert_eq!(clock.spend(1), 20);
+        assert_eq!(clock.spend(2), 0);
+        assert_eq!(shared.now(), 30);
+    }
+
+    #[test]
+    fn monotonic_clock_sleep_until_reaches_deadline_works() {
+        let clock = MonotonicClock::new().with_spin_ns(20_000);
+        let mut last = clock.now();
+        for _ in 0..20 {
+            let deadline = clock.now() + 100_000;
+            clock.sleep_until(deadline);
+            let now = clock.now();
+            assert!(now >= deadline);
+            assert!(now >= last);
+            last = now;
+        }
+        // A deadline in the past returns at once without sleeping.
+        clock.sleep_until(0);
+    }
+}
