@@ -7,3 +7,5 @@ pub mod model;
 pub mod real;
 pub mod solver;
 pub mod yardstick;
+pub mod generator;
+pub mod io;

@@ -1,0 +1,1 @@
+//! Model files: the XML model format and VTK export.
