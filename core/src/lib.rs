@@ -2,10 +2,11 @@
 //! and the yardstick benchmark. No I/O beyond reading scene files; nothing here knows of
 //! iceoryx2, windows or devices.
 
+pub mod generator;
+pub mod io;
 pub mod law;
 pub mod model;
 pub mod real;
+pub mod scene;
 pub mod solver;
 pub mod yardstick;
-pub mod generator;
-pub mod io;

@@ -18,6 +18,21 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run the core process: step a scene at a fixed rate and report deadline misses.
+    Run {
+        /// Scene file (TOML); the built-in default scene when omitted.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// How long to run, s.
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+        /// Write the deadline monitor's JSON report here at exit.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Print only the final tables.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Benchmarks that print tables.
     Bench {
         #[command(subcommand)]
@@ -48,6 +63,15 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Time per step with springs only, each effect alone, and every effect on.
+    Effects {
+        /// Scene file whose model is used; the built-in default when omitted.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Seconds per timed batch (7 batches, median reported).
+        #[arg(long, default_value_t = 0.2)]
+        batch_seconds: f64,
+    },
     /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
     Yardstick {
         /// Comma-separated: small, medium, large, or NXxNYxNZ.
@@ -80,6 +104,13 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
+            let scene = cli::run::load_scene(&scene)?;
+            cli::bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
+        }
+        Command::Run { scene, seconds, report, quiet } => {
+            cli::run::run(&cli::run::RunOptions { scene, seconds, report, quiet })
+        }
         Command::Bench {
             what: BenchCommand::Yardstick { sizes, threads, precision, simd, no_reference, json, batch_seconds },
         } => {

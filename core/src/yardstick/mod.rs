@@ -3,7 +3,7 @@
 //! spring order included, and stepped either by Lamina's solver or by the plain scalar loop
 //! of the specification, side by side.
 
-mod lattice;
+pub(crate) mod lattice;
 mod reference;
 mod run;
 
