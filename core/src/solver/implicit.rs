@@ -236,7 +236,15 @@ impl<T: Real> ImplicitSolver<T> {
             }
         };
         let bnorm = dot(&self.rhs, &self.rhs).sqrt();
-        if bnorm == 0.0 || !bnorm.is_finite() {
+        if !bnorm.is_finite() {
+            // Non-finite forces: propagate them, so the guard sees a bad frame instead of
+            // a silently frozen node.
+            self.dv.x.fill(T::from_f64(f64::NAN));
+            self.last_iterations = 0;
+            self.last_residual = f64::NAN;
+            return;
+        }
+        if bnorm == 0.0 {
             self.dv.fill_zero();
             self.last_iterations = 0;
             self.last_residual = 0.0;

@@ -1,13 +1,13 @@
 //! A model in motion: state, integrator, effects, guard.
 //!
 //! # How a frame goes
-//! 1. with the guard on, the state is snapshotted;
-//! 2. the frame step `dt` is cut into sub-steps (automatic: below the explicit scheme's
+//! 1. the frame step `dt` is cut into sub-steps (automatic: below the explicit scheme's
 //!    critical step); each sub-step evaluates loads and handles, spring forces (parallel,
 //!    vectorised), per-node accelerations, and the integrator's update, then moves bone;
-//! 3. the guard checks the result; a bad frame is rolled back and re-stepped with twice
-//!    the sub-steps, then with implicit Euler, and frozen as a last resort; every rollback
-//!    is listed in [`Simulation::quarantine`] for that frame.
+//! 2. with the guard on, the result is checked: a good state becomes the last good state
+//!    (one copy); a bad frame is rolled back to the last good state and re-stepped with
+//!    twice the sub-steps, then with implicit Euler, and frozen as a last resort; every
+//!    rollback is listed in [`Simulation::quarantine`] for that frame.
 //!
 //! `step()` cannot fail and, with the guard on, never leaves a non-finite state.
 
@@ -261,19 +261,19 @@ impl<T: Real> Simulation<T> {
     }
 
     /// Advances one frame of `params.dt` seconds.
+    ///
+    /// With the guard on, a frame that ends in a bad state is re-stepped from the last good
+    /// state (the end of the last good frame, so state corrupted between frames is caught
+    /// too): twice the sub-steps (up to `retries` times), then implicit Euler, and as a last
+    /// resort the last good state is kept with velocities zeroed.
     pub fn step(&mut self) {
         self.quarantine.clear();
-        let guard = self.dynamics.effects.guard;
-        if guard.is_some() {
-            let t = Instant::now();
-            self.snapshot.copy_from(&self.state);
-            self.dynamics.counters.guard += t.elapsed();
-        }
         self.advance(self.params.integrator, self.substeps);
         self.dynamics.counters.frames += 1;
-        let Some(settings) = guard else { return };
+        let Some(settings) = self.dynamics.effects.guard else { return };
         let t = Instant::now();
         let Some((reason, node)) = inspect_state(&self.state, &self.dynamics.rest, &settings) else {
+            self.snapshot.copy_from(&self.state);
             self.dynamics.counters.guard += t.elapsed();
             return;
         };
@@ -309,6 +309,7 @@ impl<T: Real> Simulation<T> {
                 self.totals.frozen += 1;
             }
         }
+        self.snapshot.copy_from(&self.state);
         if self.quarantine.len() < self.quarantine.capacity() {
             self.quarantine.push(GuardEvent { time, reason, node, recovery });
         }

@@ -1,0 +1,388 @@
+//! What can go wrong reading or writing model files, and where in the file it went wrong.
+
+use crate::model::ModelValidateError;
+use std::fmt;
+
+/// A place in a model file: the file, a 1-based line and column, and the byte offset.
+///
+/// The column counts Unicode characters from the start of the line (1 = first character).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SourceLocation {
+    /// The file as it was named to the reader, or `<string>` for in-memory input.
+    pub file: String,
+    /// Line, 1-based.
+    pub line: u64,
+    /// Column in characters, 1-based.
+    pub column: u64,
+    /// Byte offset from the start of the file, 0-based.
+    pub byte_offset: u64,
+}
+
+impl fmt::Display for SourceLocation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.column)
+    }
+}
+
+/// Why a model file could not be read. Every variant but [`ModelReadError::Io`] says where
+/// in the file the problem is; `item` names the thing being read, e.g. `node 17`,
+/// `spring 3`, `layer 0`, `surface 1`.
+///
+/// The messages (`Display`) are listed in `docs/model-format.md`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModelReadError {
+    /// The file could not be opened or read.
+    Io {
+        /// File name.
+        file: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The text is not well-formed XML (or not UTF-8).
+    Syntax {
+        /// Where.
+        at: SourceLocation,
+        /// The XML parser's message.
+        message: String,
+    },
+    /// The document ends before every element is closed.
+    Truncated {
+        /// Where the input ends.
+        at: SourceLocation,
+        /// The innermost element still open, or what was being parsed.
+        open: String,
+    },
+    /// An element this format does not know, or that may not appear inside its parent.
+    UnknownElement {
+        /// Where the element starts.
+        at: SourceLocation,
+        /// Its name.
+        element: String,
+        /// The enclosing element (`document` at top level).
+        parent: String,
+    },
+    /// A known element in the wrong place: a section out of order or repeated, or a
+    /// second root element.
+    MisplacedElement {
+        /// Where the element starts.
+        at: SourceLocation,
+        /// Its name.
+        element: String,
+        /// What rule it breaks.
+        reason: String,
+    },
+    /// A required element is absent.
+    MissingElement {
+        /// Where its parent ends.
+        at: SourceLocation,
+        /// The missing element.
+        element: String,
+        /// The element it should have been in.
+        parent: String,
+    },
+    /// Non-blank text where only elements may appear.
+    UnexpectedText {
+        /// Where the text starts.
+        at: SourceLocation,
+        /// The enclosing element.
+        parent: String,
+    },
+    /// An attribute the element does not have.
+    UnknownAttribute {
+        /// Where the attribute starts.
+        at: SourceLocation,
+        /// The element, e.g. `node 17`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+    },
+    /// A required attribute is absent.
+    MissingAttribute {
+        /// Where the element starts.
+        at: SourceLocation,
+        /// The element, e.g. `node 17`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+    },
+    /// An attribute or text value that should be a number is not one.
+    BadNumber {
+        /// Where the value's attribute (or text token) starts.
+        at: SourceLocation,
+        /// The element, e.g. `node 17`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+        /// The value as written.
+        value: String,
+    },
+    /// A number is NaN or infinite.
+    NonFinite {
+        /// Where the attribute starts.
+        at: SourceLocation,
+        /// The element, e.g. `node 17`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+        /// The value as written.
+        value: String,
+    },
+    /// A keyword attribute (law, kind, tissue, units, version, role) has a value the
+    /// format does not know.
+    UnknownValue {
+        /// Where the attribute starts.
+        at: SourceLocation,
+        /// The element, e.g. `node 17`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+        /// The value as written.
+        value: String,
+        /// The values allowed, for the message.
+        allowed: &'static str,
+    },
+    /// An index (own index, node, layer) is not below the number of things it indexes.
+    IndexOutOfRange {
+        /// Where the attribute starts.
+        at: SourceLocation,
+        /// The element, e.g. `spring 3`.
+        item: String,
+        /// The attribute's name.
+        attribute: String,
+        /// The index written.
+        index: u64,
+        /// How many there are (the index must be below this).
+        count: u64,
+    },
+    /// An element's `index` names an element that came before it.
+    DuplicateIndex {
+        /// Where the `index` attribute starts.
+        at: SourceLocation,
+        /// The element's kind, e.g. `node`.
+        item: String,
+        /// The repeated index.
+        index: u64,
+    },
+    /// Elements are not listed in index order (an index is skipped).
+    IndexOutOfOrder {
+        /// Where the `index` attribute starts.
+        at: SourceLocation,
+        /// The element's kind, e.g. `node`.
+        item: String,
+        /// The index that had to come next.
+        expected: u64,
+        /// The index written.
+        found: u64,
+    },
+    /// A section's `count` differs from the number of elements in it.
+    CountMismatch {
+        /// Where the section ends.
+        at: SourceLocation,
+        /// The section, e.g. `nodes`.
+        section: String,
+        /// The `count` attribute.
+        declared: u64,
+        /// Elements found.
+        found: u64,
+    },
+    /// A spring given only as a PPU pair does not describe a bilinear law.
+    BadPpu {
+        /// Where the `ppu` element starts.
+        at: SourceLocation,
+        /// The spring, e.g. `spring 3`.
+        item: String,
+        /// Why.
+        reason: String,
+    },
+    /// Everything parsed, but [`crate::model::Model::validate`] rejects the model (zero
+    /// mass, a spring from a node to itself, negative stiffness, turning length below the
+    /// rest length, ...). `at` is the offending element when one is named.
+    Invalid {
+        /// Where the offending element starts (the root element when none is named).
+        at: SourceLocation,
+        /// The validation failure.
+        reason: ModelValidateError,
+    },
+}
+
+impl ModelReadError {
+    /// The location of the error, or `None` for [`ModelReadError::Io`].
+    pub fn location(&self) -> Option<&SourceLocation> {
+        match self {
+            Self::Io { .. } => None,
+            Self::Syntax { at, .. }
+            | Self::Truncated { at, .. }
+            | Self::UnknownElement { at, .. }
+            | Self::MisplacedElement { at, .. }
+            | Self::MissingElement { at, .. }
+            | Self::UnexpectedText { at, .. }
+            | Self::UnknownAttribute { at, .. }
+            | Self::MissingAttribute { at, .. }
+            | Self::BadNumber { at, .. }
+            | Self::NonFinite { at, .. }
+            | Self::UnknownValue { at, .. }
+            | Self::IndexOutOfRange { at, .. }
+            | Self::DuplicateIndex { at, .. }
+            | Self::IndexOutOfOrder { at, .. }
+            | Self::CountMismatch { at, .. }
+            | Self::BadPpu { at, .. }
+            | Self::Invalid { at, .. } => Some(at),
+        }
+    }
+
+    /// Mutable location, for the reader to fill in file, line and column once known.
+    pub(crate) fn location_mut(&mut self) -> Option<&mut SourceLocation> {
+        match self {
+            Self::Io { .. } => None,
+            Self::Syntax { at, .. }
+            | Self::Truncated { at, .. }
+            | Self::UnknownElement { at, .. }
+            | Self::MisplacedElement { at, .. }
+            | Self::MissingElement { at, .. }
+            | Self::UnexpectedText { at, .. }
+            | Self::UnknownAttribute { at, .. }
+            | Self::MissingAttribute { at, .. }
+            | Self::BadNumber { at, .. }
+            | Self::NonFinite { at, .. }
+            | Self::UnknownValue { at, .. }
+            | Self::IndexOutOfRange { at, .. }
+            | Self::DuplicateIndex { at, .. }
+            | Self::IndexOutOfOrder { at, .. }
+            | Self::CountMismatch { at, .. }
+            | Self::BadPpu { at, .. }
+            | Self::Invalid { at, .. } => Some(at),
+        }
+    }
+
+    /// The 1-based line of the error, or `None` for [`ModelReadError::Io`].
+    pub fn line(&self) -> Option<u64> {
+        self.location().map(|l| l.line)
+    }
+}
+
+impl fmt::Display for ModelReadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { file, message } => write!(f, "{file}: cannot read: {message}"),
+            Self::Syntax { at, message } => write!(f, "{at}: not well-formed XML: {message}"),
+            Self::Truncated { at, open } => write!(f, "{at}: the document ends inside '{open}' (truncated file?)"),
+            Self::UnknownElement { at, element, parent } => {
+                write!(f, "{at}: unknown element <{element}> inside <{parent}>")
+            }
+            Self::MisplacedElement { at, element, reason } => write!(f, "{at}: element <{element}>: {reason}"),
+            Self::MissingElement { at, element, parent } => {
+                write!(f, "{at}: <{parent}> lacks the required element <{element}>")
+            }
+            Self::UnexpectedText { at, parent } => write!(f, "{at}: unexpected text inside <{parent}>"),
+            Self::UnknownAttribute { at, item, attribute } => {
+                write!(f, "{at}: {item}: unknown attribute '{attribute}'")
+            }
+            Self::MissingAttribute { at, item, attribute } => {
+                write!(f, "{at}: {item}: missing attribute '{attribute}'")
+            }
+            Self::BadNumber { at, item, attribute, value } => {
+                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not a number")
+            }
+            Self::NonFinite { at, item, attribute, value } => {
+                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not finite")
+            }
+            Self::UnknownValue { at, item, attribute, value, allowed } => {
+                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not one of: {allowed}")
+            }
+            Self::IndexOutOfRange { at, item, attribute, index, count } => {
+                write!(f, "{at}: {item}: attribute '{attribute}' = {index} is out of range (there are {count})")
+            }
+            Self::DuplicateIndex { at, item, index } => {
+                write!(f, "{at}: {item} index {index} appears twice")
+            }
+            Self::IndexOutOfOrder { at, item, expected, found } => {
+                write!(f, "{at}: {item} index {found} out of order: index {expected} must come next")
+            }
+            Self::CountMismatch { at, section, declared, found } => {
+                write!(f, "{at}: <{section}> declares count=\"{declared}\" but holds {found} elements")
+            }
+            Self::BadPpu { at, item, reason } => write!(f, "{at}: {item}: PPU pair is not a bilinear law: {reason}"),
+            Self::Invalid { at, reason } => write!(f, "{at}: invalid model: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for ModelReadError {}
+
+/// Why a model could not be written.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModelWriteError {
+    /// The file could not be created or written.
+    Io {
+        /// File name.
+        file: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The model fails [`crate::model::Model::validate`]; the file would not read back.
+    Invalid {
+        /// The validation failure.
+        reason: ModelValidateError,
+    },
+    /// A node's texture coordinate is NaN or infinite.
+    NonFiniteTexcoord {
+        /// Node index.
+        node: u32,
+    },
+    /// A name or provenance string holds a NUL character, which XML cannot carry.
+    UnrepresentableText {
+        /// Which string, e.g. `provenance key 2`.
+        what: String,
+    },
+}
+
+impl fmt::Display for ModelWriteError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { file, message } => write!(f, "{file}: cannot write: {message}"),
+            Self::Invalid { reason } => write!(f, "refusing to write an invalid model: {reason}"),
+            Self::NonFiniteTexcoord { node } => write!(f, "node {node}: texture coordinate is not finite"),
+            Self::UnrepresentableText { what } => write!(f, "{what} contains a NUL character, which XML cannot hold"),
+        }
+    }
+}
+
+impl std::error::Error for ModelWriteError {}
+
+/// Why a VTK file (or a series of them) could not be written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum VtuWriteError {
+    /// A file could not be created or written.
+    Io {
+        /// File name.
+        file: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The positions given are not one per model node.
+    PositionCount {
+        /// Nodes in the model.
+        expected: usize,
+        /// Positions given.
+        found: usize,
+    },
+    /// A frame's time is NaN, infinite, or earlier than the previous frame's.
+    BadTime {
+        /// Frame number, 0-based.
+        frame: usize,
+    },
+}
+
+impl fmt::Display for VtuWriteError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { file, message } => write!(f, "{file}: cannot write: {message}"),
+            Self::PositionCount { expected, found } => {
+                write!(f, "{found} positions given for a model of {expected} nodes")
+            }
+            Self::BadTime { frame } => write!(f, "frame {frame}: time is not finite or goes backwards"),
+        }
+    }
+}
+
+impl std::error::Error for VtuWriteError {}
