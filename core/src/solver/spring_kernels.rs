@@ -12,6 +12,10 @@ use crate::real::Real;
 /// before being added to their end nodes.
 const CHUNK: usize = super::spring_layout::SEGMENT_LEN as usize;
 
+/// Runs whose node offset is at least this (a multiple of every vector width) accumulate
+/// forces directly; shorter offsets stage them in a chunk buffer first.
+const DIRECT_MIN_OFFSET: usize = 16;
+
 /// Springs shorter than this (m) have no direction: they exert no force, and no NaN.
 pub const MIN_SPRING_LENGTH: f64 = 1e-12;
 
@@ -32,54 +36,83 @@ pub struct ForceWindow<'a, T> {
     pub lo: usize,
 }
 
-/// A spring law as the kernels see it: elastic tension from the stretch `L − L0`.
+/// A spring law as the kernels see it: elastic tension from the stretch `L − L0`, read
+/// from a chunk of parameter slices that all have the chunk's length (so indexing inside
+/// the loop needs no bounds checks and the loop vectorises).
 trait KernelLaw<T: Real>: Sync {
-    /// Rest length of spring `s`, m.
-    fn rest(&self, s: usize) -> T;
-    /// Dashpot of spring `s`, N·s/m.
-    fn damping(&self, s: usize) -> T;
-    /// Elastic tension of spring `s` at `stretch`, N.
-    fn tension(&self, s: usize, stretch: T) -> T;
+    /// The parameters of springs `s0 .. s0 + n`.
+    type Chunk<'a>: Copy
+    where
+        Self: 'a;
+    /// Parameters of springs `s0 .. s0 + n`.
+    fn chunk(&self, s0: usize, n: usize) -> Self::Chunk<'_>;
+    /// Rest length of the chunk's spring `i`, m.
+    fn rest(c: &Self::Chunk<'_>, i: usize) -> T;
+    /// Dashpot of spring `i`, N·s/m.
+    fn damping(c: &Self::Chunk<'_>, i: usize) -> T;
+    /// Elastic tension of spring `i` at `stretch`, N.
+    fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T;
 }
 
 impl<T: Real> KernelLaw<T> for LinearParams<T> {
+    type Chunk<'a> = (&'a [T], &'a [T], &'a [T]);
     #[inline(always)]
-    fn rest(&self, s: usize) -> T {
-        self.rest[s]
+    fn chunk(&self, s0: usize, n: usize) -> Self::Chunk<'_> {
+        (&self.rest[s0..s0 + n], &self.k[s0..s0 + n], &self.c[s0..s0 + n])
     }
     #[inline(always)]
-    fn damping(&self, s: usize) -> T {
-        self.c[s]
+    fn rest(c: &Self::Chunk<'_>, i: usize) -> T {
+        c.0[i]
     }
     #[inline(always)]
-    fn tension(&self, s: usize, stretch: T) -> T {
-        self.k[s] * stretch
+    fn damping(c: &Self::Chunk<'_>, i: usize) -> T {
+        c.2[i]
+    }
+    #[inline(always)]
+    fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T {
+        c.1[i] * stretch
     }
 }
+
+/// Bilinear parameters of a chunk: rest, k1, k2, kc, turn, c.
+type BilinearChunk<'a, T> = [&'a [T]; 6];
 
 impl<T: Real> KernelLaw<T> for BilinearParams<T> {
+    type Chunk<'a> = BilinearChunk<'a, T>;
     #[inline(always)]
-    fn rest(&self, s: usize) -> T {
-        self.rest[s]
+    fn chunk(&self, s0: usize, n: usize) -> Self::Chunk<'_> {
+        let r = s0..s0 + n;
+        [
+            &self.rest[r.clone()],
+            &self.k1[r.clone()],
+            &self.k2[r.clone()],
+            &self.kc[r.clone()],
+            &self.turn[r.clone()],
+            &self.c[r],
+        ]
     }
     #[inline(always)]
-    fn damping(&self, s: usize) -> T {
-        self.c[s]
+    fn rest(c: &Self::Chunk<'_>, i: usize) -> T {
+        c[0][i]
     }
     #[inline(always)]
-    fn tension(&self, s: usize, stretch: T) -> T {
-        let turn = self.turn[s];
+    fn damping(c: &Self::Chunk<'_>, i: usize) -> T {
+        c[5][i]
+    }
+    #[inline(always)]
+    fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T {
+        let turn = c[4][i];
         let pull = stretch.max(T::ZERO);
-        self.kc[s] * stretch.min(T::ZERO) + self.k1[s] * pull.min(turn) + self.k2[s] * (pull - turn).max(T::ZERO)
+        c[3][i] * stretch.min(T::ZERO) + c[1][i] * pull.min(turn) + c[2][i] * (pull - turn).max(T::ZERO)
     }
 }
 
-/// Force on end `a` of one spring (end `b` gets the opposite), N.
+/// Force on end `a` of spring `i` of a chunk (end `b` gets the opposite), N.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn spring_force<T: Real, L: KernelLaw<T>, const DAMP: bool>(
-    law: &L,
-    s: usize,
+    chunk: &L::Chunk<'_>,
+    i: usize,
     dx: T,
     dy: T,
     dz: T,
@@ -90,9 +123,9 @@ fn spring_force<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     let length = (dx * dx + dy * dy + dz * dz).sqrt();
     let inv = T::ONE / length.max(T::from_f64(MIN_SPRING_LENGTH));
     let (ux, uy, uz) = (dx * inv, dy * inv, dz * inv);
-    let mut fs = law.tension(s, length - law.rest(s));
+    let mut fs = L::tension(chunk, i, length - L::rest(chunk, i));
     if DAMP {
-        fs += law.damping(s) * (dvx * ux + dvy * uy + dvz * uz);
+        fs += L::damping(chunk, i) * (dvx * ux + dvy * uy + dvz * uz);
     }
     [fs * ux, fs * uy, fs * uz]
 }
@@ -112,9 +145,14 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     let mut ty = [T::ZERO; CHUNK];
     let mut tz = [T::ZERO; CHUNK];
     for run in &block.runs[part.runs.clone()] {
+        let offset = (run.b0 - run.a0) as usize;
+        // Sub-chunks no longer than the offset have disjoint first-node and second-node
+        // ranges: their forces go straight into the window. Shorter offsets stage forces.
+        let direct = offset >= DIRECT_MIN_OFFSET;
+        let step = if direct { (offset / DIRECT_MIN_OFFSET * DIRECT_MIN_OFFSET).min(CHUNK) } else { CHUNK };
         let mut done = 0usize;
         while done < run.len as usize {
-            let n = (run.len as usize - done).min(CHUNK);
+            let n = (run.len as usize - done).min(step);
             let a = run.a0 as usize + done;
             let b = run.b0 as usize + done;
             let s0 = run.first as usize + done;
@@ -122,34 +160,51 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
             let (xb, yb, zb) = (&x[b..b + n], &y[b..b + n], &z[b..b + n]);
             let (vxa, vya, vza) = (&vx[a..a + n], &vy[a..a + n], &vz[a..a + n]);
             let (vxb, vyb, vzb) = (&vx[b..b + n], &vy[b..b + n], &vz[b..b + n]);
-            let (tx, ty, tz) = (&mut tx[..n], &mut ty[..n], &mut tz[..n]);
-            for i in 0..n {
-                let (dvx, dvy, dvz) = if DAMP {
-                    (vxb[i] - vxa[i], vyb[i] - vya[i], vzb[i] - vza[i])
-                } else {
-                    (T::ZERO, T::ZERO, T::ZERO)
-                };
-                let f = spring_force::<T, L, DAMP>(
-                    &block.params,
-                    s0 + i,
-                    xb[i] - xa[i],
-                    yb[i] - ya[i],
-                    zb[i] - za[i],
-                    dvx,
-                    dvy,
-                    dvz,
-                );
-                tx[i] = f[0];
-                ty[i] = f[1];
-                tz[i] = f[2];
+            let params = block.params.chunk(s0, n);
+            // A macro, not a closure: a closure may be left out of line, and then it is
+            // neither vectorised nor compiled for this function's target features.
+            macro_rules! force {
+                ($i:expr) => {{
+                    let i = $i;
+                    let (dvx, dvy, dvz) = if DAMP {
+                        (vxb[i] - vxa[i], vyb[i] - vya[i], vzb[i] - vza[i])
+                    } else {
+                        (T::ZERO, T::ZERO, T::ZERO)
+                    };
+                    spring_force::<T, L, DAMP>(&params, i, xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i], dvx, dvy, dvz)
+                }};
             }
             let (wa, wb) = (a - lo, b - lo);
-            for (dst, src) in [(&mut **fx, &*tx), (&mut **fy, &*ty), (&mut **fz, &*tz)] {
-                for (d, s) in dst[wa..wa + n].iter_mut().zip(src) {
-                    *d += *s;
+            if direct {
+                let (fxa, fxb) = fx.split_at_mut(wb);
+                let (fya, fyb) = fy.split_at_mut(wb);
+                let (fza, fzb) = fz.split_at_mut(wb);
+                let (fxa, fya, fza) = (&mut fxa[wa..wa + n], &mut fya[wa..wa + n], &mut fza[wa..wa + n]);
+                let (fxb, fyb, fzb) = (&mut fxb[..n], &mut fyb[..n], &mut fzb[..n]);
+                for i in 0..n {
+                    let f = force!(i);
+                    fxa[i] += f[0];
+                    fya[i] += f[1];
+                    fza[i] += f[2];
+                    fxb[i] -= f[0];
+                    fyb[i] -= f[1];
+                    fzb[i] -= f[2];
                 }
-                for (d, s) in dst[wb..wb + n].iter_mut().zip(src) {
-                    *d -= *s;
+            } else {
+                let (tx, ty, tz) = (&mut tx[..n], &mut ty[..n], &mut tz[..n]);
+                for i in 0..n {
+                    let f = force!(i);
+                    tx[i] = f[0];
+                    ty[i] = f[1];
+                    tz[i] = f[2];
+                }
+                for (dst, src) in [(&mut **fx, &*tx), (&mut **fy, &*ty), (&mut **fz, &*tz)] {
+                    for (d, s) in dst[wa..wa + n].iter_mut().zip(src) {
+                        *d += *s;
+                    }
+                    for (d, s) in dst[wb..wb + n].iter_mut().zip(src) {
+                        *d -= *s;
+                    }
                 }
             }
             done += n;
@@ -160,7 +215,8 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
         let s = block.loose_first + i;
         let (dvx, dvy, dvz) =
             if DAMP { (vx[b] - vx[a], vy[b] - vy[a], vz[b] - vz[a]) } else { (T::ZERO, T::ZERO, T::ZERO) };
-        let f = spring_force::<T, L, DAMP>(&block.params, s, x[b] - x[a], y[b] - y[a], z[b] - z[a], dvx, dvy, dvz);
+        let params = block.params.chunk(s, 1);
+        let f = spring_force::<T, L, DAMP>(&params, 0, x[b] - x[a], y[b] - y[a], z[b] - z[a], dvx, dvy, dvz);
         fx[a - lo] += f[0];
         fy[a - lo] += f[1];
         fz[a - lo] += f[2];
