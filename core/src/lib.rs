@@ -9,4 +9,5 @@ pub mod model;
 pub mod real;
 pub mod scene;
 pub mod solver;
+pub mod study;
 pub mod yardstick;

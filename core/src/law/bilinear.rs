@@ -75,4 +75,22 @@ mod tests {
         assert_eq!(law.tangent(1.6, 1.0), 50.0);
         assert_eq!(law.tangent(0.9, 1.0), 7.0);
     }
+
+    #[test]
+    fn spring_energy_is_integral_of_force_works() {
+        // Trapezoid rule on a fine grid against the closed-form energy, across both kinks.
+        let law =
+            super::super::SpringLaw::Bilinear(Bilinear { k1: 2.0, k2: 50.0, turn_length: 1.5, k_compression: 7.0 });
+        let (rest, n) = (1.0, 200_000);
+        for end in [0.3, 1.2, 1.5, 2.7] {
+            let h = (end - rest) / n as f64;
+            let mut w = 0.0;
+            for i in 0..n {
+                let (a, b) = (rest + i as f64 * h, rest + (i + 1) as f64 * h);
+                w += 0.5 * (law.force(a, rest) + law.force(b, rest)) * h;
+            }
+            let e = law.energy(end, rest);
+            assert!((w - e).abs() <= 1e-6 * e.abs().max(1e-12), "L={end}: {w} vs {e}");
+        }
+    }
 }

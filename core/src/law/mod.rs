@@ -29,6 +29,27 @@ impl SpringLaw {
         }
     }
 
+    /// Elastic energy stored at `length`, J: the integral of [`SpringLaw::force`] from the
+    /// rest length.
+    pub fn energy(&self, length: f64, rest_length: f64) -> f64 {
+        let s = length - rest_length;
+        match self {
+            SpringLaw::Linear { stiffness } => 0.5 * stiffness * s * s,
+            SpringLaw::Bilinear(b) => {
+                if s < 0.0 {
+                    0.5 * b.k_compression * s * s
+                } else {
+                    let t = b.turn_length - rest_length;
+                    if s <= t {
+                        0.5 * b.k1 * s * s
+                    } else {
+                        0.5 * b.k1 * t * t + b.k1 * t * (s - t) + 0.5 * b.k2 * (s - t) * (s - t)
+                    }
+                }
+            }
+        }
+    }
+
     /// Tangent stiffness dF/dL in N/m at `length` (the larger one at a kink).
     pub fn tangent(&self, length: f64, rest_length: f64) -> f64 {
         match self {

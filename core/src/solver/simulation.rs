@@ -147,12 +147,18 @@ impl<T: Real> Simulation<T> {
         if !(params.dt.is_finite() && params.dt > 0.0) || params.substeps == Substeps::Fixed(0) {
             return Err(SimulationBuildError::BadStep);
         }
-        let stability = StabilityEstimate::of_model(
+        let mut stability = StabilityEstimate::of_model(
             model,
             effects.spring_damping,
             effects.viscous_damping.unwrap_or(0.0),
             effects.bone,
         );
+        // A drag handle is a spring to a fixed point: it stiffens its node's modes.
+        for h in &effects.handles {
+            let m = model.nodes.mass[h.node as usize];
+            stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
+            stability.gamma_max += h.damping / m;
+        }
         let dynamics = Dynamics::new(model, &params, effects);
         let n = model.nodes.len();
         let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };

@@ -1,0 +1,73 @@
+//! The hard cases of `lamina study stability`, one test each: every integrator stays finite
+//! and bounded and never holds more energy than was put in.
+
+use lamina_core::solver::IntegratorKind;
+use lamina_core::study::{StabilityRow, run_case, stability_cases};
+
+fn check(name: &str) -> Vec<StabilityRow> {
+    let cases = stability_cases();
+    let case = cases.iter().find(|c| c.name == name).expect("case exists");
+    IntegratorKind::ALL
+        .iter()
+        .map(|&k| {
+            let row = run_case(case, k);
+            assert!(row.finite, "{name}/{}: non-finite state", row.integrator);
+            assert!(row.max_displacement_m < 0.3, "{name}/{}: unbounded, {} m", row.integrator, row.max_displacement_m);
+            assert!(
+                row.energy_excess < 0.05,
+                "{name}/{}: energy grew beyond the work put in: {}",
+                row.integrator,
+                row.energy_excess
+            );
+            row
+        })
+        .collect()
+}
+
+#[test]
+fn stiffness_ratio_1e4_stays_stable_works() {
+    for row in check("stiffness_ratio_1e4") {
+        assert_eq!(row.frozen, 0, "{row:?}");
+    }
+}
+
+#[test]
+fn stiffness_ratio_1e5_stays_stable_works() {
+    for row in check("stiffness_ratio_1e5") {
+        assert_eq!(row.frozen, 0, "{row:?}");
+    }
+}
+
+#[test]
+fn step_10x_explicit_limit_substeps_automatically_works() {
+    for row in check("step_10x_explicit_limit") {
+        if row.integrator == "implicit_euler" {
+            assert_eq!(row.substeps, 1, "implicit Euler takes the frame in one step: {row:?}");
+        } else {
+            assert!(row.substeps > 1 && row.substep_over_critical <= 1.0, "explicit schemes must sub-step below their limit: {row:?}");
+        }
+        assert_eq!(row.rollbacks, 0, "{row:?}");
+    }
+}
+
+#[test]
+fn pull_3x_rest_length_stays_stable_works() {
+    for row in check("pull_3x_rest_length") {
+        assert!(row.max_stretch_ratio > 3.0, "the case must really pull past 3x: {row:?}");
+    }
+}
+
+#[test]
+fn zero_length_and_inverted_springs_stay_stable_works() {
+    check("zero_length_and_inverted_springs");
+}
+
+#[test]
+fn coincident_nodes_stay_stable_works() {
+    check("coincident_nodes");
+}
+
+#[test]
+fn sudden_large_load_stays_stable_works() {
+    check("sudden_large_load");
+}
