@@ -38,6 +38,11 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// Accuracy-versus-time and hard-case stability studies.
+    Study {
+        #[command(subcommand)]
+        what: StudyCommand,
+    },
     /// Step the yardstick scene and write final positions as CSV.
     Yardstick {
         /// small, medium, large, or NXxNYxNZ.
@@ -58,6 +63,31 @@ enum Command {
         /// Worker threads.
         #[arg(long, default_value_t = 1)]
         threads: usize,
+    },
+}
+
+#[derive(Subcommand)]
+enum StudyCommand {
+    /// Error against cost per simulated second for every integrator over a range of steps.
+    Accuracy {
+        /// Scene whose model is the third case; the built-in default when omitted.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Output folder for the CSV and PNG plots.
+        #[arg(long, default_value = "out/study")]
+        out: PathBuf,
+        /// Fewer steps per integrator.
+        #[arg(long)]
+        quick: bool,
+        /// Simulated time of the model case, s.
+        #[arg(long, default_value_t = 0.05)]
+        seconds: f64,
+    },
+    /// The hard cases: finite, bounded, no energy gain, guard activity.
+    Stability {
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -104,6 +134,11 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Study { what: StudyCommand::Accuracy { scene, out, quick, seconds } } => {
+            let scene = cli::run::load_scene(&scene)?;
+            cli::study::accuracy(&scene, &out, quick, seconds)
+        }
+        Command::Study { what: StudyCommand::Stability { json } } => cli::study::stability(json),
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = cli::run::load_scene(&scene)?;
             cli::bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))

@@ -3,5 +3,7 @@
 pub mod bench_effects;
 pub mod bench_yardstick;
 pub mod machine;
+pub mod plot_font;
 pub mod run;
+pub mod study;
 pub mod yardstick_cmd;

@@ -11,9 +11,9 @@ pub struct SourceLocation {
     /// The file as it was named to the reader, or `<string>` for in-memory input.
     pub file: String,
     /// Line, 1-based.
-    pub line: u64,
+    pub line: u32,
     /// Column in characters, 1-based.
-    pub column: u64,
+    pub column: u32,
     /// Byte offset from the start of the file, 0-based.
     pub byte_offset: u64,
 }
@@ -103,7 +103,7 @@ pub enum ModelReadError {
         /// The element, e.g. `node 17`.
         item: String,
         /// The attribute's name.
-        attribute: String,
+        attribute: &'static str,
     },
     /// An attribute or text value that should be a number is not one.
     BadNumber {
@@ -111,8 +111,8 @@ pub enum ModelReadError {
         at: SourceLocation,
         /// The element, e.g. `node 17`.
         item: String,
-        /// The attribute's name.
-        attribute: String,
+        /// The attribute's name; empty for a number in element text (triangles, grid).
+        attribute: &'static str,
         /// The value as written.
         value: String,
     },
@@ -123,7 +123,7 @@ pub enum ModelReadError {
         /// The element, e.g. `node 17`.
         item: String,
         /// The attribute's name.
-        attribute: String,
+        attribute: &'static str,
         /// The value as written.
         value: String,
     },
@@ -135,7 +135,7 @@ pub enum ModelReadError {
         /// The element, e.g. `node 17`.
         item: String,
         /// The attribute's name.
-        attribute: String,
+        attribute: &'static str,
         /// The value as written.
         value: String,
         /// The values allowed, for the message.
@@ -147,8 +147,8 @@ pub enum ModelReadError {
         at: SourceLocation,
         /// The element, e.g. `spring 3`.
         item: String,
-        /// The attribute's name.
-        attribute: String,
+        /// The attribute's name; empty for a node index in element text (triangles, grid).
+        attribute: &'static str,
         /// The index written.
         index: u64,
         /// How many there are (the index must be below this).
@@ -255,7 +255,7 @@ impl ModelReadError {
     }
 
     /// The 1-based line of the error, or `None` for [`ModelReadError::Io`].
-    pub fn line(&self) -> Option<u64> {
+    pub fn line(&self) -> Option<u32> {
         self.location().map(|l| l.line)
     }
 }
@@ -270,6 +270,9 @@ impl fmt::Display for ModelReadError {
                 write!(f, "{at}: unknown element <{element}> inside <{parent}>")
             }
             Self::MisplacedElement { at, element, reason } => write!(f, "{at}: element <{element}>: {reason}"),
+            Self::MissingElement { at, element, parent } if parent == "document" => {
+                write!(f, "{at}: the document has no <{element}> element")
+            }
             Self::MissingElement { at, element, parent } => {
                 write!(f, "{at}: <{parent}> lacks the required element <{element}>")
             }
@@ -280,6 +283,9 @@ impl fmt::Display for ModelReadError {
             Self::MissingAttribute { at, item, attribute } => {
                 write!(f, "{at}: {item}: missing attribute '{attribute}'")
             }
+            Self::BadNumber { at, item, attribute: "", value } => {
+                write!(f, "{at}: {item}: '{value}' is not a number")
+            }
             Self::BadNumber { at, item, attribute, value } => {
                 write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not a number")
             }
@@ -289,8 +295,11 @@ impl fmt::Display for ModelReadError {
             Self::UnknownValue { at, item, attribute, value, allowed } => {
                 write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not one of: {allowed}")
             }
+            Self::IndexOutOfRange { at, item, attribute: "", index, count } => {
+                write!(f, "{at}: {item}: node index {index} is out of range (must be below {count})")
+            }
             Self::IndexOutOfRange { at, item, attribute, index, count } => {
-                write!(f, "{at}: {item}: attribute '{attribute}' = {index} is out of range (there are {count})")
+                write!(f, "{at}: {item}: attribute '{attribute}' = {index} is out of range (must be below {count})")
             }
             Self::DuplicateIndex { at, item, index } => {
                 write!(f, "{at}: {item} index {index} appears twice")

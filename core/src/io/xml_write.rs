@@ -41,13 +41,16 @@ pub fn write_model(model: &Model, path: impl AsRef<Path>) -> Result<(), ModelWri
 ///
 /// # Errors
 /// As [`write_model`].
-pub fn write_model_with(model: &Model, path: impl AsRef<Path>, options: ModelWriteOptions) -> Result<(), ModelWriteError> {
+pub fn write_model_with(
+    model: &Model,
+    path: impl AsRef<Path>,
+    options: ModelWriteOptions,
+) -> Result<(), ModelWriteError> {
     let path = path.as_ref();
     check_writable(model)?;
     let io_error = |e: io::Error| ModelWriteError::Io { file: path.display().to_string(), message: e.to_string() };
     let mut file = File::create(path).map_err(io_error)?;
-    emit(model, options, &mut file).map_err(io_error)?;
-    file.sync_data().map_err(io_error)
+    emit(model, options, &mut file).map_err(io_error)
 }
 
 /// The XML text of `model`, with default options.
@@ -82,15 +85,22 @@ fn check_writable(model: &Model) -> Result<(), ModelWriteError> {
     let n = model.nodes.len();
     for s in &model.surfaces {
         if let Some((columns, rows, grid)) = &s.grid
-            && ((*columns as usize).checked_mul(*rows as usize) != Some(grid.len()) || grid.iter().any(|&v| v as usize >= n))
+            && ((*columns as usize).checked_mul(*rows as usize) != Some(grid.len())
+                || grid.iter().any(|&v| v as usize >= n))
         {
-            return Err(ModelWriteError::Invalid { reason: ModelValidateError::BadSurface { surface: s.name.clone() } });
+            return Err(ModelWriteError::Invalid {
+                reason: ModelValidateError::BadSurface { surface: s.name.clone() },
+            });
         }
     }
     let mut scratch = String::new();
     let mut text_ok = |what: &dyn Fn() -> String, s: &str| {
         scratch.clear();
-        if escape_attribute(s, &mut scratch) { Ok(()) } else { Err(ModelWriteError::UnrepresentableText { what: what() }) }
+        if escape_attribute(s, &mut scratch) {
+            Ok(())
+        } else {
+            Err(ModelWriteError::UnrepresentableText { what: what() })
+        }
     };
     text_ok(&|| "model name".into(), &model.name)?;
     for (i, (k, v)) in model.provenance.iter().enumerate() {
@@ -172,7 +182,8 @@ impl<W: Write> Out<'_, W> {
 }
 
 fn emit<W: Write>(model: &Model, options: ModelWriteOptions, sink: &mut W) -> io::Result<()> {
-    let mut o = Out { buf: String::with_capacity(CHUNK + 4096), sink, float: zmij::Buffer::new(), int: itoa::Buffer::new() };
+    let mut o =
+        Out { buf: String::with_capacity(CHUNK + 4096), sink, float: zmij::Buffer::new(), int: itoa::Buffer::new() };
     o.s("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!-- Lamina model file; format: docs/model-format.md -->\n<");
     o.s(names::ROOT);
     o.text("version", MODEL_FORMAT_VERSION);
