@@ -67,6 +67,9 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         sim.params().threads,
         sim.params().simd
     );
+    if sim.params().integrator == lamina_core::solver::IntegratorKind::SymplecticEuler {
+        println!("integrator: symplectic Euler, the accuracy study's winner for a 1 kHz budget (docs/accuracy-and-stability.md)");
+    }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 
     let cpu = scene.realtime.cpu.or_else(|| available_cpus().last().copied());
