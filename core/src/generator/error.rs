@@ -1,0 +1,97 @@
+//! Why a model could not be generated.
+
+use super::surface::Boundary;
+use crate::model::{ModelValidateError, Tissue};
+use std::fmt;
+
+/// Why [`generate_layered`](super::generate_layered) or [`generate`](super::generate)
+/// failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GeneratorError {
+    /// The grid has fewer than 3 columns or 1 row, or too many nodes for `u32` indices.
+    BadGrid {
+        /// Requested W.
+        columns: u32,
+        /// Requested H.
+        rows: u32,
+    },
+    /// The cylinder limb's radii are not positive and strictly decreasing inward, or its
+    /// length is not positive and finite.
+    BadCylinder,
+    /// The ray origin distance is not positive and finite.
+    BadReach,
+    /// A tissue's material has a non-finite or negative parameter or a non-positive density.
+    BadMaterial {
+        /// The tissue.
+        tissue: Tissue,
+    },
+    /// A ray cast toward the centreline did not meet a boundary: the boundary is not closed
+    /// there, lies outside the reach, or the previous sample is already inside it (the
+    /// layer above is thinner than the sagitta of the outer grid's triangles).
+    RayMissed {
+        /// The boundary that was missed.
+        boundary: Boundary,
+        /// Grid column of the sample (the cell's column for a triangle sample).
+        column: u32,
+        /// Grid ring of a point sample, or row of the cell of a triangle sample.
+        row: u32,
+        /// For a triangle sample, which triangle of the cell (0 or 1); `None` for a grid
+        /// point of the outer skin.
+        triangle: Option<u8>,
+    },
+    /// Two connected nodes landed within 1 nm of each other (a degenerate surface).
+    DegenerateSpring {
+        /// First node.
+        a: u32,
+        /// Second node.
+        b: u32,
+    },
+    /// The finished model failed [`Model::validate`](crate::model::Model::validate).
+    Model(ModelValidateError),
+}
+
+impl fmt::Display for GeneratorError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::BadGrid { columns, rows } => {
+                write!(f, "grid {columns}x{rows}: needs at least 3 columns and 1 row and fewer than 2^32 nodes")
+            }
+            Self::BadCylinder => {
+                write!(f, "cylinder limb: radii must be positive and decrease inward; length positive")
+            }
+            Self::BadReach => write!(f, "ray reach must be positive and finite"),
+            Self::BadMaterial { tissue } => {
+                write!(f, "material of {}: a parameter is not finite and valid", tissue.name())
+            }
+            Self::RayMissed { boundary, column, row, triangle: None } => {
+                write!(
+                    f,
+                    "ray toward the centreline missed {} at grid point (column {column}, ring {row})",
+                    boundary.name()
+                )
+            }
+            Self::RayMissed { boundary, column, row, triangle: Some(half) } => write!(
+                f,
+                "ray toward the centreline missed {} below triangle {half} of grid cell (column {column}, row {row})",
+                boundary.name()
+            ),
+            Self::DegenerateSpring { a, b } => write!(f, "nodes {a} and {b} coincide (spring shorter than 1 nm)"),
+            Self::Model(e) => write!(f, "generated model is invalid: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for GeneratorError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Model(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<ModelValidateError> for GeneratorError {
+    fn from(e: ModelValidateError) -> Self {
+        Self::Model(e)
+    }
+}
