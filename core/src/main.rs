@@ -38,6 +38,24 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// Generate a layered model: the paper's Table 3 comparison, or the cylindrical limb.
+    Generate {
+        /// Print our mass and spring counts beside the paper's Table 3.
+        #[arg(long)]
+        table3: bool,
+        /// Grid of the synthetic cylindrical limb, WxH.
+        #[arg(long, default_value = "39x10")]
+        cylinder: String,
+        /// Limb length, m.
+        #[arg(long, default_value_t = 0.30)]
+        length: f64,
+        /// Output model (XML).
+        #[arg(long, default_value = "limb.xml")]
+        out: PathBuf,
+        /// Also write the model as VTK (.vtu) for ParaView.
+        #[arg(long)]
+        vtu: Option<PathBuf>,
+    },
     /// Accuracy-versus-time and hard-case stability studies.
     Study {
         #[command(subcommand)]
@@ -134,6 +152,13 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Generate { table3, cylinder, length, out, vtu } => {
+            if table3 {
+                cli::generate::table3()
+            } else {
+                cli::generate::cylinder(cli::generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
+            }
+        }
         Command::Study { what: StudyCommand::Accuracy { scene, out, quick, seconds } } => {
             let scene = cli::run::load_scene(&scene)?;
             cli::study::accuracy(&scene, &out, quick, seconds)

@@ -68,7 +68,9 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         sim.params().simd
     );
     if sim.params().integrator == lamina_core::solver::IntegratorKind::SymplecticEuler {
-        println!("integrator: symplectic Euler, the accuracy study's winner for a 1 kHz budget (docs/accuracy-and-stability.md)");
+        println!(
+            "integrator: symplectic Euler, the accuracy study's winner for a 1 kHz budget (docs/accuracy-and-stability.md)"
+        );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 

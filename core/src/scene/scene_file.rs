@@ -30,6 +30,15 @@ pub enum ModelSource {
     LayeredBlock(BlockSpec),
     /// The yardstick lattice.
     Yardstick(LatticeSize),
+    /// The generator's synthetic cylindrical limb (W columns × H rows, default materials).
+    CylinderLimb {
+        /// Columns around.
+        columns: u32,
+        /// Rows along.
+        rows: u32,
+        /// Length, m.
+        length: f64,
+    },
     /// A model file (XML), path relative to the scene file.
     File(PathBuf),
 }
@@ -155,6 +164,11 @@ enum RawModel {
     },
     Yardstick {
         size: String,
+    },
+    CylinderLimb {
+        columns: Option<u32>,
+        rows: Option<u32>,
+        length: Option<f64>,
     },
     File {
         path: PathBuf,
@@ -327,6 +341,18 @@ impl Scene {
             Some(RawModel::Yardstick { size }) => ModelSource::Yardstick(
                 LatticeSize::parse(&size).ok_or_else(|| value_err("model.size", "small, medium, large or NXxNYxNZ"))?,
             ),
+            Some(RawModel::CylinderLimb { columns, rows, length }) => {
+                let d = crate::generator::CylinderLimb::default();
+                let (columns, rows) = (columns.unwrap_or(d.grid.columns), rows.unwrap_or(d.grid.rows));
+                let length = length.unwrap_or(d.length);
+                if !(3..=4096).contains(&columns)
+                    || !(1..=4096).contains(&rows)
+                    || !(length.is_finite() && length > 0.0)
+                {
+                    return Err(value_err("model", "columns 3..=4096, rows 1..=4096, length finite and positive"));
+                }
+                ModelSource::CylinderLimb { columns, rows, length }
+            }
             Some(RawModel::File { path: p }) => {
                 let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
                 ModelSource::File(base.join(p))
@@ -478,12 +504,17 @@ impl Scene {
         let model = match &self.model {
             ModelSource::LayeredBlock(spec) => layered_block(spec),
             ModelSource::Yardstick(size) => lattice_model(*size),
-            ModelSource::File(p) => {
-                return Err(SceneLoadError::Model {
-                    path: file,
-                    message: format!("{}: reading model files is not available in this build", p.display()),
-                });
+            ModelSource::CylinderLimb { columns, rows, length } => {
+                let spec = crate::generator::CylinderLimb {
+                    grid: crate::generator::GridSize::new(*columns, *rows),
+                    length: *length,
+                    ..crate::generator::CylinderLimb::default()
+                };
+                crate::generator::generate(&spec, &crate::generator::Materials::default())
+                    .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?
             }
+            ModelSource::File(p) => crate::io::read_model(p)
+                .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?,
         };
         model.validate().map_err(|e| SceneLoadError::Model { path: file, message: e.to_string() })?;
         Ok(model)

@@ -133,6 +133,10 @@ pub struct SpringLayout<T> {
 /// into a few long ones at the cost of about one null spring per row. Default 2.
 pub const MAX_BRIDGED_GAP: u32 = 2;
 
+/// Pieces shorter than this are never bridged: bridging short pieces would add null
+/// springs in a proportion that costs more than the longer runs save. Default 16.
+pub const BRIDGE_MIN_PIECE: usize = 16;
+
 /// Runs are cut into segments of at most this many springs (a multiple of every vector
 /// width) and the segments of all offsets are interleaved by first node, so one forward
 /// sweep keeps the touched nodes in cache. Default 128.
@@ -159,34 +163,55 @@ fn find_runs(pairs: &[(u32, u32, u32)]) -> (Vec<RawRun>, Vec<u32>) {
     for off in offsets {
         let mut list = by_offset.remove(&off).unwrap_or_default();
         list.sort_unstable();
+        // Maximal runs of consecutive first nodes.
+        let mut pieces: Vec<(usize, usize)> = Vec::new();
         let mut start = 0;
         while start < list.len() {
-            // Extend while the next first node follows within the bridged gap.
-            let mut members = vec![list[start].1];
             let mut end = start + 1;
-            while end < list.len()
-                && list[end].0 > list[end - 1].0
-                && list[end].0 - list[end - 1].0 <= MAX_BRIDGED_GAP + 1
-            {
-                let gap = (list[end].0 - list[end - 1].0 - 1) as usize;
-                members.extend(std::iter::repeat_n(NULL_SPRING, gap));
-                members.push(list[end].1);
+            while end < list.len() && list[end].0 == list[end - 1].0 + 1 {
                 end += 1;
             }
-            if end - start >= MIN_RUN_LEN {
-                let a0 = list[start].0;
-                let mut cut = 0usize;
-                while cut < members.len() {
-                    let len = (members.len() - cut).min(SEGMENT_LEN as usize);
-                    let a = a0 + cut as u32;
-                    let run = Run { a0: a, b0: a + off, len: len as u32, first: 0 };
-                    runs.push((run, members[cut..cut + len].to_vec()));
-                    cut += len;
-                }
-            } else {
-                loose.extend_from_slice(&list[start..end]);
-            }
+            pieces.push((start, end));
             start = end;
+        }
+        // Bridge a small gap between two long pieces with null springs.
+        let mut groups: Vec<Vec<(usize, usize)>> = Vec::new();
+        for piece in pieces {
+            if let Some(group) = groups.last_mut() {
+                let last = *group.last().expect("groups are never empty");
+                let gap = list[piece.0].0 - list[last.1 - 1].0 - 1;
+                let long = |p: (usize, usize)| p.1 - p.0 >= BRIDGE_MIN_PIECE;
+                if gap <= MAX_BRIDGED_GAP && long(last) && long(piece) {
+                    group.push(piece);
+                    continue;
+                }
+            }
+            groups.push(vec![piece]);
+        }
+        for group in groups {
+            let real: usize = group.iter().map(|p| p.1 - p.0).sum();
+            if real < MIN_RUN_LEN {
+                for p in group {
+                    loose.extend_from_slice(&list[p.0..p.1]);
+                }
+                continue;
+            }
+            let mut members = Vec::with_capacity(real + MAX_BRIDGED_GAP as usize * group.len());
+            for (k, p) in group.iter().enumerate() {
+                if k > 0 {
+                    let gap = (list[p.0].0 - list[group[k - 1].1 - 1].0 - 1) as usize;
+                    members.extend(std::iter::repeat_n(NULL_SPRING, gap));
+                }
+                members.extend(list[p.0..p.1].iter().map(|e| e.1));
+            }
+            let a0 = list[group[0].0].0;
+            let mut cut = 0usize;
+            while cut < members.len() {
+                let len = (members.len() - cut).min(SEGMENT_LEN as usize);
+                let a = a0 + cut as u32;
+                runs.push((Run { a0: a, b0: a + off, len: len as u32, first: 0 }, members[cut..cut + len].to_vec()));
+                cut += len;
+            }
         }
     }
     runs.sort_by_key(|(r, _)| (r.a0, r.b0));
@@ -356,16 +381,28 @@ mod tests {
 
     #[test]
     fn layout_bridges_small_gaps_with_null_springs_works() {
+        // Two pieces of 20 springs with first nodes 0..20 and 22..42: one run with 2 nulls.
+        let mut s = SpringSet::default();
+        for a in (0u32..20).chain(22..42) {
+            s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
+        }
+        let layout = SpringLayout::<f64>::new(&s, 1);
+        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 42, first: 0 }]);
+        assert_eq!(layout.null_springs(), 2);
+        assert_eq!(&layout.linear.params.k[20..22], &[0.0, 0.0]);
+        assert_eq!(&layout.linear.params.c[20..22], &[0.0, 0.0]);
+        assert_eq!(layout.linear.source[20], NULL_SPRING);
+    }
+
+    #[test]
+    fn layout_short_pieces_are_not_bridged_works() {
         let mut s = SpringSet::default();
         for a in [0u32, 1, 2, 5, 6, 7] {
             s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
         }
         let layout = SpringLayout::<f64>::new(&s, 1);
-        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 8, first: 0 }]);
-        assert_eq!(layout.null_springs(), 2);
-        assert_eq!(&layout.linear.params.k[3..5], &[0.0, 0.0]);
-        assert_eq!(&layout.linear.params.c[3..5], &[0.0, 0.0]);
-        assert_eq!(layout.linear.source[3], NULL_SPRING);
+        assert_eq!(layout.null_springs(), 0);
+        assert_eq!(layout.linear.loose_a.len(), 6);
     }
 
     #[test]
