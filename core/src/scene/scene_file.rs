@@ -345,9 +345,7 @@ impl Scene {
                 let d = crate::generator::CylinderLimb::default();
                 let (columns, rows) = (columns.unwrap_or(d.grid.columns), rows.unwrap_or(d.grid.rows));
                 let length = length.unwrap_or(d.length);
-                if !(3..=4096).contains(&columns)
-                    || !(1..=4096).contains(&rows)
-                    || !(length.is_finite() && length > 0.0)
+                if !((3..=4096).contains(&columns) && (1..=4096).contains(&rows) && length.is_finite() && length > 0.0)
                 {
                     return Err(value_err("model", "columns 3..=4096, rows 1..=4096, length finite and positive"));
                 }
