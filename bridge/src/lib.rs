@@ -1,1 +1,54 @@
-//! The wire contract between Lamina processes (iceoryx2).
+//! Lamina's wire contract over iceoryx2: frame types, service names and QoS, and the
+//! publishers and subscribers every Lamina process uses.
+//!
+//! # How it fits together
+//! 1. [`Bridge::open`] creates the process's iceoryx2 node under a service prefix
+//!    (default `lamina`) and cleans up peers that died.
+//! 2. [`services`] builds every service from one function each, so QoS always matches.
+//! 3. [`publish`] writes straight into shared memory and never waits for a subscriber.
+//! 4. [`subscribe`] polls or blocks (with a timeout) and hands out views, not copies.
+//! 5. [`wire`] holds the only definition of the byte layout; [`topology`] converts the static
+//!    model to and from it; [`clock`] is the cross-process time base.
+//!
+//! Architecture invariant: this crate knows nothing of the physics; it moves positions,
+//! poses, forces and statistics.
+//!
+//! # Examples
+//!
+//! ```
+//! use core::time::Duration;
+//! use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher, NodesSubscriber};
+//!
+//! # fn main() -> Result<(), Box<dyn core::error::Error>> {
+//! let bridge = Bridge::open(&BridgeConfig::with_prefix("doc_lib"))?;
+//! let subscriber = NodesSubscriber::create(&bridge)?;
+//! let publisher = NodesPublisher::create(&bridge, 2769)?;
+//! publisher.publish(0, 0, 0.0, 2769, |p| p.fill([0.0, 0.0, 1.0]))?;
+//! let frame = subscriber.receive_timeout(Duration::from_secs(1))?.expect("published");
+//! assert_eq!(frame.header().node_count, 2769);
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod bridge;
+pub mod clock;
+pub mod publish;
+pub mod services;
+pub mod shutdown;
+pub mod subscribe;
+pub mod topology;
+pub mod wire;
+
+pub use bridge::{Bridge, BridgeConfig, BridgeOpenError, DEFAULT_PREFIX, ServiceNames};
+pub use clock::now_ns;
+pub use publish::{
+    FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher, StatsPublisher,
+    ToolPublisher, TopologyPublishError, TopologyPublisher,
+};
+pub use services::{Message, PortCreateError, ServiceOpenError};
+pub use subscribe::{
+    FeedbackSubscriber, MessageSample, MessageSubscriber, NodesSample, NodesSubscriber, SampleReceiveError,
+    StatsSubscriber, ToolSubscriber, TopologySample, TopologySubscriber,
+};
+pub use topology::{LayerRange, Topology, TopologyDecodeError, TopologyEncodeError};
+pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand};

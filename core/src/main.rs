@@ -32,6 +32,15 @@ enum Command {
         /// Print only the final tables.
         #[arg(long)]
         quiet: bool,
+        /// iceoryx2 service prefix, so several simulations can share a host.
+        #[arg(long, default_value = "lamina")]
+        prefix: String,
+        /// Do not publish over iceoryx2.
+        #[arg(long)]
+        no_publish: bool,
+        /// Write every tick's record (tick, wake, lateness, compute, send; ns) as CSV at exit.
+        #[arg(long)]
+        ticks_csv: Option<PathBuf>,
     },
     /// Benchmarks that print tables.
     Bench {
@@ -168,8 +177,9 @@ fn run(cli: Cli) -> Result<(), String> {
             let scene = cli::run::load_scene(&scene)?;
             cli::bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
         }
-        Command::Run { scene, seconds, report, quiet } => {
-            cli::run::run(&cli::run::RunOptions { scene, seconds, report, quiet })
+        Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv } => {
+            let prefix = (!no_publish).then_some(prefix);
+            cli::run::run(&cli::run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv })
         }
         Command::Bench {
             what: BenchCommand::Yardstick { sizes, threads, precision, simd, no_reference, json, batch_seconds },

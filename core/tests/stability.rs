@@ -44,7 +44,10 @@ fn step_10x_explicit_limit_substeps_automatically_works() {
         if row.integrator == "implicit_euler" {
             assert_eq!(row.substeps, 1, "implicit Euler takes the frame in one step: {row:?}");
         } else {
-            assert!(row.substeps > 1 && row.substep_over_critical <= 1.0, "explicit schemes must sub-step below their limit: {row:?}");
+            assert!(
+                row.substeps > 1 && row.substep_over_critical <= 1.0,
+                "explicit schemes must sub-step below their limit: {row:?}"
+            );
         }
         assert_eq!(row.rollbacks, 0, "{row:?}");
     }

@@ -21,6 +21,10 @@ pub struct RunOptions {
     pub seconds: f64,
     pub report: Option<PathBuf>,
     pub quiet: bool,
+    /// iceoryx2 service prefix; `None`: do not publish.
+    pub prefix: Option<String>,
+    /// Write every tick's record (tick, wake, lateness, compute, send; ns) as CSV at exit.
+    pub ticks_csv: Option<PathBuf>,
 }
 
 /// Loads the scene named in `opts` or the built-in default.
@@ -99,21 +103,41 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     if let Some(b) = scene.realtime.budget_us {
         config = config.with_budget_ns((b * 1e3) as u64);
     }
+    if opts.ticks_csv.is_some() {
+        // Room for every tick of the run (and a margin), allocated before the loop starts.
+        config = config.with_record_capacity((opts.seconds * scene.rate_hz as f64) as usize + 1024);
+    }
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
+    let mut publisher = match &opts.prefix {
+        Some(prefix) => {
+            let p = super::publish::CorePublisher::open(prefix, &model)?;
+            println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
+            Some(p)
+        }
+        None => None,
+    };
+    let probe = monitor.send_probe();
     let total_ns = (opts.seconds * 1e9) as u64;
     let mut elapsed_ns = 0u64;
     let mut second = 0u64;
     let mut out = std::io::stdout().lock();
     while elapsed_ns < total_ns {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
-        let run = lp.run(RunLimit::duration_ns(chunk).and_stop_flag(&STOP), &mut monitor, |_| {
+        let clock = MonotonicClock::new();
+        let run = lp.run(RunLimit::duration_ns(chunk).and_stop_flag(&STOP), &mut monitor, |info| {
             sim.step();
+            if let Some(p) = publisher.as_mut() {
+                probe.measure(&clock, || p.publish_nodes(info.tick, sim.state()));
+            }
             ControlFlow::Continue(())
         });
         elapsed_ns += chunk;
         second += 1;
+        let s = monitor.summary();
+        if let Some(p) = publisher.as_mut() {
+            p.publish_stats(&s);
+        }
         if !opts.quiet {
-            let s = monitor.summary();
             let _ = writeln!(
                 out,
                 "[{second:>3} s] ticks {:>6} misses {:>4} | compute p50 {:>7.1} us p99 {:>7.1} us max {:>7.1} us | lateness p99 {:>7.1} us | guard rollbacks {}",
@@ -164,6 +188,17 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         g.frozen,
         state.x.all_finite() && state.v.all_finite()
     );
+    if let Some(p) = &publisher {
+        println!("published {} node frames ({} publish failures)", p.sequence, p.failures);
+    }
+    if let Some(path) = &opts.ticks_csv {
+        let mut text = String::from("tick,wake_ns,lateness_ns,compute_ns,send_ns\n");
+        for r in monitor.records().iter() {
+            text.push_str(&format!("{},{},{},{},{}\n", r.tick, r.wake_ns, r.lateness_ns, r.compute_ns, r.send_ns));
+        }
+        std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("per-tick records written to {}", path.display());
+    }
     if let Some(path) = &opts.report {
         monitor.write_report(path).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());

@@ -1,0 +1,142 @@
+//! `lamina-publish-probe`: publishes synthetic node frames at a fixed rate so latency can be
+//! measured without the physics core.
+//!
+//! Absolute deadlines (`next += period`, `clock_nanosleep(TIMER_ABSTIME)`). Overrun policy:
+//! skip — when a deadline has already passed by more than one period, the missed slots are
+//! skipped and counted (`overruns`), never published in a burst. Prints a JSON summary at the
+//! end (after `--seconds`, or on SIGTERM/SIGINT).
+
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use lamina_bridge::clock::{now_ns, sleep_until_ns};
+use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher, shutdown};
+use serde::Serialize;
+
+/// Publish synthetic Lamina node frames at a fixed rate.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// Nodes per frame.
+    #[arg(long, default_value_t = 2769)]
+    nodes: usize,
+    /// Frames per second.
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    /// Run time in seconds.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Service prefix of the simulation.
+    #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
+    prefix: String,
+    /// iceoryx2 file prefix (domain); default iceoryx2's own.
+    #[arg(long)]
+    file_prefix: Option<String>,
+    /// Pin this process to a CPU index.
+    #[arg(long)]
+    pin: Option<usize>,
+    /// Before starting, wait up to 10 s for this many subscribers.
+    #[arg(long, default_value_t = 0)]
+    wait_subscribers: usize,
+}
+
+#[derive(Debug, Serialize)]
+struct Summary {
+    prefix: String,
+    nodes: usize,
+    rate_hz: f64,
+    duration_s: f64,
+    sent: u64,
+    publish_errors: u64,
+    overruns: u64,
+    notify_failures: u64,
+    max_publish_call_ns: u64,
+    delivered_total: u64,
+}
+
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("lamina-publish-probe: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
+    let args = Args::parse();
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        return Err("--rate must be a positive number".into());
+    }
+    shutdown::install();
+    if let Some(cpu) = args.pin
+        && !core_affinity::set_for_current(core_affinity::CoreId { id: cpu })
+    {
+        eprintln!("lamina-publish-probe: could not pin to CPU {cpu}; running unpinned");
+    }
+    let cfg = BridgeConfig {
+        file_prefix: args.file_prefix.clone(),
+        node_name: Some("lamina-publish-probe".into()),
+        ..BridgeConfig::with_prefix(&args.prefix)
+    };
+    let bridge = Bridge::open(&cfg)?;
+    let publisher = NodesPublisher::create(&bridge, args.nodes)?;
+
+    let wait_start = Instant::now();
+    while publisher.subscriber_count() < args.wait_subscribers
+        && wait_start.elapsed() < Duration::from_secs(10)
+        && !shutdown::requested()
+    {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+
+    let period_ns = (1e9 / args.rate).max(1.0) as u64;
+    let run_for = Duration::try_from_secs_f64(args.seconds.max(0.0)).unwrap_or(Duration::MAX);
+    let dt = 1.0 / args.rate;
+    let (mut sent, mut errors, mut overruns, mut max_call, mut delivered_total) = (0u64, 0u64, 0u64, 0u64, 0u64);
+    let start = Instant::now();
+    let mut next = now_ns();
+    let mut tick = 0u64;
+    while !shutdown::requested() && start.elapsed() < run_for {
+        let t0 = now_ns();
+        let phase = tick as f32 * 1e-3;
+        match publisher.publish_from_fn(sent, tick, tick as f64 * dt, args.nodes, |i| [i as f32 * 1e-4, phase, 0.0]) {
+            Ok(n) => {
+                sent += 1;
+                delivered_total += n as u64;
+            }
+            Err(e) => {
+                errors += 1;
+                if errors == 1 {
+                    eprintln!("lamina-publish-probe: {e}");
+                }
+            }
+        }
+        max_call = max_call.max(now_ns().saturating_sub(t0));
+        next += period_ns;
+        tick += 1;
+        let now = now_ns();
+        if now > next + period_ns {
+            let behind = (now - next) / period_ns;
+            overruns += behind;
+            tick += behind;
+            next += behind * period_ns;
+        }
+        sleep_until_ns(next);
+    }
+    let summary = Summary {
+        prefix: args.prefix,
+        nodes: args.nodes,
+        rate_hz: args.rate,
+        duration_s: start.elapsed().as_secs_f64(),
+        sent,
+        publish_errors: errors,
+        overruns,
+        notify_failures: publisher.notify_failures(),
+        max_publish_call_ns: max_call,
+        delivered_total,
+    };
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    Ok(())
+}

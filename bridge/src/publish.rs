@@ -1,0 +1,382 @@
+//! Publishers: node frames, the topology, and fixed-size messages, each followed by a wake-up.
+//!
+//! Every publisher is non-blocking by construction: the services have safe overflow on (a
+//! full subscriber buffer loses its oldest sample) and the ports use
+//! [`BackpressureStrategy::DiscardData`], so a stalled, hung or killed subscriber never holds
+//! up `publish`. After each send the publisher notifies the service's wake-up event so
+//! blocking subscribers return; a failed notification is counted, not returned, because the
+//! data itself was delivered.
+//!
+//! Late joiners receive the last sample (history 1) when the publisher next updates its
+//! connections: every `publish` does that, and [`TopologyPublisher::serve_late_joiners`] (or
+//! `update_connections` on the other publishers) does it without sending.
+//!
+//! # Examples
+//!
+//! ```
+//! use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher, NodesSubscriber};
+//!
+//! # fn main() -> Result<(), Box<dyn core::error::Error>> {
+//! let bridge = Bridge::open(&BridgeConfig::with_prefix("doc_publish"))?;
+//! let publisher = NodesPublisher::create(&bridge, 1000)?;
+//! let subscriber = NodesSubscriber::create(&bridge)?;
+//!
+//! // Positions are written straight into shared memory.
+//! publisher.publish_from_fn(0, 0, 0.0, 3, |i| [i as f32, 0.0, 0.0])?;
+//!
+//! let frame = subscriber.try_receive()?.expect("sent above");
+//! assert_eq!(frame.positions()[2], [2.0, 0.0, 0.0]);
+//! assert!(publisher.publish_from_fn(1, 1, 0.001, 1001, |_| [0.0; 3]).is_err());
+//! # Ok(())
+//! # }
+//! ```
+
+use core::cell::Cell;
+
+use iceoryx2::port::LoanError;
+use iceoryx2::port::SendError;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::update_connections::{ConnectionFailure, UpdateConnections};
+use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, PortFactory as _, ipc};
+
+use crate::bridge::Bridge;
+use crate::clock::now_ns;
+use crate::services::{
+    Message, MessageService, NodesService, PortCreateError, TopologyService, WakeService, open_message_service,
+    open_nodes_service, open_topology_service, open_wake_service,
+};
+use crate::topology::{Topology, TopologyEncodeError};
+use crate::wire::NodesHeader;
+
+/// Why a node frame was not published. Nothing was sent when this is returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NodesPublishError {
+    /// More nodes than the publisher was created for (`requested > max`).
+    TooManyNodes {
+        /// Node count of the rejected frame.
+        requested: usize,
+        /// The publisher's fixed maximum.
+        max: usize,
+    },
+    /// No shared-memory chunk could be loaned.
+    Loan(LoanError),
+    /// iceoryx2 could not deliver the sample.
+    Send(SendError),
+}
+
+/// Why a topology was not published. Nothing was sent when this is returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TopologyPublishError {
+    /// The topology is invalid.
+    Encode(TopologyEncodeError),
+    /// The encoding needs more words than the publisher was created for.
+    TooLarge {
+        /// Words the topology needs.
+        words: usize,
+        /// The publisher's fixed maximum.
+        max: usize,
+    },
+    /// No shared-memory chunk could be loaned.
+    Loan(LoanError),
+    /// iceoryx2 could not deliver the sample.
+    Send(SendError),
+}
+
+/// Why a message (tool, feedback, stats) was not published.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MessagePublishError {
+    /// No shared-memory chunk could be loaned.
+    Loan(LoanError),
+    /// iceoryx2 could not deliver the sample.
+    Send(SendError),
+}
+
+macro_rules! publish_error_impls {
+    ($t:ident, $what:literal) => {
+        impl From<LoanError> for $t {
+            fn from(value: LoanError) -> Self {
+                Self::Loan(value)
+            }
+        }
+        impl From<SendError> for $t {
+            fn from(value: SendError) -> Self {
+                Self::Send(value)
+            }
+        }
+        impl core::error::Error for $t {}
+        impl core::fmt::Display for $t {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                write!(f, concat!("cannot publish ", $what, ": "))?;
+                self.describe(f)
+            }
+        }
+    };
+}
+publish_error_impls!(NodesPublishError, "node frame");
+publish_error_impls!(TopologyPublishError, "topology");
+publish_error_impls!(MessagePublishError, "message");
+
+impl NodesPublishError {
+    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::TooManyNodes { requested, max } => {
+                write!(f, "{requested} nodes exceed the maximum of {max}")
+            }
+            Self::Loan(e) => write!(f, "{e}"),
+            Self::Send(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl TopologyPublishError {
+    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Encode(e) => write!(f, "{e}"),
+            Self::TooLarge { words, max } => write!(f, "{words} words exceed the maximum of {max}"),
+            Self::Loan(e) => write!(f, "{e}"),
+            Self::Send(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl MessagePublishError {
+    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Loan(e) => write!(f, "{e}"),
+            Self::Send(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl From<TopologyEncodeError> for TopologyPublishError {
+    fn from(value: TopologyEncodeError) -> Self {
+        Self::Encode(value)
+    }
+}
+
+/// A notifier that counts its failures instead of failing the publish.
+#[derive(Debug)]
+struct Waker {
+    _service: WakeService,
+    notifier: Notifier<ipc::Service>,
+    failures: Cell<u64>,
+}
+
+impl Waker {
+    fn create(bridge: &Bridge, name: &iceoryx2::prelude::ServiceName) -> Result<Self, PortCreateError> {
+        let service = open_wake_service(bridge, name)?;
+        let notifier = service.notifier_builder().create()?;
+        Ok(Self { _service: service, notifier, failures: Cell::new(0) })
+    }
+
+    fn wake(&self) {
+        if self.notifier.notify().is_err() {
+            self.failures.set(self.failures.get().saturating_add(1));
+        }
+    }
+}
+
+/// Publishes node frames on `<prefix>/nodes`, writing positions straight into shared memory.
+///
+/// The maximum node count is fixed at creation (static allocation: shared memory is sized
+/// once, about `max_nodes * 12 B * 51` chunks for the default QoS, 61 MB for 100,000 nodes).
+/// Not `Send`: create it on the thread that publishes.
+#[derive(Debug)]
+pub struct NodesPublisher {
+    service: NodesService,
+    publisher: Publisher<ipc::Service, [[f32; 3]], NodesHeader>,
+    waker: Waker,
+    max_nodes: usize,
+}
+
+impl NodesPublisher {
+    /// Creates the publisher for frames of at most `max_nodes` positions (at least 1).
+    pub fn create(bridge: &Bridge, max_nodes: usize) -> Result<Self, PortCreateError> {
+        let max_nodes = max_nodes.max(1);
+        let service = open_nodes_service(bridge)?;
+        let publisher = service
+            .publisher_builder()
+            .initial_max_slice_len(max_nodes)
+            .allocation_strategy(AllocationStrategy::Static)
+            .backpressure_strategy(BackpressureStrategy::DiscardData)
+            .max_loaned_samples(1)
+            .create()?;
+        let waker = Waker::create(bridge, &bridge.names().nodes)?;
+        Ok(Self { service, publisher, waker, max_nodes })
+    }
+
+    /// The fixed maximum node count per frame.
+    pub fn max_nodes(&self) -> usize {
+        self.max_nodes
+    }
+
+    fn check(&self, node_count: usize) -> Result<u32, NodesPublishError> {
+        let too_many = NodesPublishError::TooManyNodes { requested: node_count, max: self.max_nodes };
+        if node_count > self.max_nodes {
+            return Err(too_many);
+        }
+        u32::try_from(node_count).map_err(|_| too_many)
+    }
+
+    /// Publishes one frame whose position `i` is `position(i)` (metres), written directly into
+    /// the loaned shared memory, then wakes blocking subscribers.
+    ///
+    /// `sequence`, `tick` and `sim_time_s` (seconds) go into the [`NodesHeader`];
+    /// `publish_time_ns` is stamped after the positions are written, just before sending.
+    /// Returns the number of subscribers the frame was delivered to. Never blocks on a
+    /// subscriber.
+    pub fn publish_from_fn<F: FnMut(usize) -> [f32; 3]>(
+        &self,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        node_count: usize,
+        position: F,
+    ) -> Result<usize, NodesPublishError> {
+        let count = self.check(node_count)?;
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(position);
+        *sample.user_header_mut() =
+            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
+        let delivered = sample.send()?;
+        self.waker.wake();
+        Ok(delivered)
+    }
+
+    /// Like [`NodesPublisher::publish_from_fn`], but `fill` receives the whole positions slice
+    /// (metres) in shared memory. The slice is zeroed first (one pass over the frame), so
+    /// prefer `publish_from_fn` when positions can be produced per index.
+    pub fn publish<F: FnOnce(&mut [[f32; 3]])>(
+        &self,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        node_count: usize,
+        fill: F,
+    ) -> Result<usize, NodesPublishError> {
+        let count = self.check(node_count)?;
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|_| [0.0; 3]);
+        fill(sample.payload_mut());
+        *sample.user_header_mut() =
+            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
+        let delivered = sample.send()?;
+        self.waker.wake();
+        Ok(delivered)
+    }
+
+    /// Connects new subscribers and hands them the last frame (history) without sending.
+    pub fn update_connections(&self) -> Result<(), ConnectionFailure> {
+        self.publisher.update_connections()
+    }
+
+    /// Wake-up notifications that failed so far (the frames themselves were delivered).
+    pub fn notify_failures(&self) -> u64 {
+        self.waker.failures.get()
+    }
+
+    /// Subscribers currently registered on the `nodes` service (including dead ones not yet
+    /// cleaned up).
+    pub fn subscriber_count(&self) -> usize {
+        self.service.dynamic_config().number_of_subscribers()
+    }
+}
+
+/// Publishes the static [`Topology`] on `<prefix>/topology`, kept for late joiners.
+#[derive(Debug)]
+pub struct TopologyPublisher {
+    _service: TopologyService,
+    publisher: Publisher<ipc::Service, [u32], crate::wire::TopologyHeader>,
+    waker: Waker,
+    max_words: usize,
+    revision: u64,
+}
+
+impl TopologyPublisher {
+    /// Creates a publisher for encodings of at most `max_words` words
+    /// (see [`Topology::word_count`]).
+    pub fn create(bridge: &Bridge, max_words: usize) -> Result<Self, PortCreateError> {
+        let max_words = max_words.max(1);
+        let service = open_topology_service(bridge)?;
+        let publisher = service
+            .publisher_builder()
+            .initial_max_slice_len(max_words)
+            .allocation_strategy(AllocationStrategy::Static)
+            .backpressure_strategy(BackpressureStrategy::DiscardData)
+            .max_loaned_samples(1)
+            .create()?;
+        let waker = Waker::create(bridge, &bridge.names().topology)?;
+        Ok(Self { _service: service, publisher, waker, max_words, revision: 0 })
+    }
+
+    /// Publishes `topology` with the next revision number (0 first); returns the number of
+    /// subscribers it was delivered to.
+    pub fn publish(&mut self, topology: &Topology) -> Result<usize, TopologyPublishError> {
+        let mut header = topology.header()?;
+        let words = topology.word_count();
+        if words > self.max_words {
+            return Err(TopologyPublishError::TooLarge { words, max: self.max_words });
+        }
+        header.revision = self.revision;
+        let mut sample = self.publisher.loan_slice_uninit(words)?.write_from_fn(|i| topology.word(i));
+        *sample.user_header_mut() = header;
+        let delivered = sample.send()?;
+        self.revision = self.revision.wrapping_add(1);
+        self.waker.wake();
+        Ok(delivered)
+    }
+
+    /// Hands the last topology to subscribers that joined since the last call. Call it
+    /// regularly (each tick or each second) from the publishing loop; it is cheap when nobody
+    /// joined.
+    pub fn serve_late_joiners(&self) -> Result<(), ConnectionFailure> {
+        self.publisher.update_connections()
+    }
+}
+
+/// Publishes fixed-size messages of type `M` ([`crate::wire::ToolCommand`],
+/// [`crate::wire::ContactFeedback`], [`crate::wire::StatsSummary`]) on `M`'s service.
+#[derive(Debug)]
+pub struct MessagePublisher<M: Message> {
+    _service: MessageService<M>,
+    publisher: Publisher<ipc::Service, M, ()>,
+    waker: Waker,
+}
+
+/// Publisher of tool commands (haptics → core).
+pub type ToolPublisher = MessagePublisher<crate::wire::ToolCommand>;
+/// Publisher of contact feedback (core → haptics).
+pub type FeedbackPublisher = MessagePublisher<crate::wire::ContactFeedback>;
+/// Publisher of deadline-monitor summaries (core → all).
+pub type StatsPublisher = MessagePublisher<crate::wire::StatsSummary>;
+
+impl<M: Message> MessagePublisher<M> {
+    /// Creates the publisher on `M`'s service.
+    pub fn create(bridge: &Bridge) -> Result<Self, PortCreateError> {
+        let service = open_message_service::<M>(bridge)?;
+        let publisher = service
+            .publisher_builder()
+            .backpressure_strategy(BackpressureStrategy::DiscardData)
+            .max_loaned_samples(1)
+            .create()?;
+        let waker = Waker::create(bridge, M::service_name(bridge.names()))?;
+        Ok(Self { _service: service, publisher, waker })
+    }
+
+    /// Sends a copy of `message` (it is small) and wakes blocking subscribers; returns the
+    /// number of subscribers it was delivered to.
+    pub fn publish(&self, message: &M) -> Result<usize, MessagePublishError> {
+        let delivered = self.publisher.loan_uninit()?.write_payload(*message).send()?;
+        self.waker.wake();
+        Ok(delivered)
+    }
+
+    /// Connects new subscribers and hands them the last message (history) without sending.
+    pub fn update_connections(&self) -> Result<(), ConnectionFailure> {
+        self.publisher.update_connections()
+    }
+
+    /// Wake-up notifications that failed so far (the messages themselves were delivered).
+    pub fn notify_failures(&self) -> u64 {
+        self.waker.failures.get()
+    }
+}

@@ -1,0 +1,195 @@
+//! In-process publish/subscribe behaviour of every service. Each test uses its own service
+//! prefix (test name + process id), so tests and concurrent runs never share a service.
+
+use core::time::Duration;
+
+use lamina_bridge::{
+    Bridge, BridgeConfig, BridgeOpenError, ContactFeedback, FeedbackPublisher, FeedbackSubscriber, LayerRange,
+    NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary, ToolCommand,
+    ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
+};
+
+/// Watchdog for waits that must succeed; it bounds a hang, it is not a timing requirement.
+const WATCHDOG: Duration = Duration::from_secs(30);
+
+fn bridge(test: &str) -> Bridge {
+    let prefix = format!("t{}_{test}", std::process::id());
+    Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge opens")
+}
+
+fn position(seq: u64, i: usize) -> [f32; 3] {
+    [i as f32, seq as f32, -(i as f32) * 0.5]
+}
+
+#[test]
+fn nodes_round_trip_works() {
+    let b = bridge("nodes_round_trip");
+    let publisher = NodesPublisher::create(&b, 2769).unwrap();
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+
+    let delivered = publisher.publish_from_fn(7, 70, 0.07, 2769, |i| position(7, i)).unwrap();
+    assert_eq!(delivered, 1);
+    publisher
+        .publish(8, 80, 0.08, 100, |p| {
+            for (i, x) in p.iter_mut().enumerate() {
+                *x = position(8, i);
+            }
+        })
+        .unwrap();
+
+    let first = subscriber.try_receive().unwrap().expect("first frame queued");
+    let h = first.header();
+    assert_eq!((h.sequence, h.tick, h.sim_time_s, h.node_count), (7, 70, 0.07, 2769));
+    assert!(h.publish_time_ns > 0);
+    assert_eq!(first.positions().len(), 2769);
+    assert!(first.positions().iter().enumerate().all(|(i, p)| *p == position(7, i)));
+
+    let second = subscriber.try_receive().unwrap().expect("second frame queued");
+    assert_eq!(second.header().sequence, 8);
+    assert!(second.header().publish_time_ns >= h.publish_time_ns);
+    assert!(second.positions().iter().enumerate().all(|(i, p)| *p == position(8, i)));
+    assert!(subscriber.try_receive().unwrap().is_none());
+}
+
+#[test]
+fn nodes_receive_timeout_works() {
+    let b = bridge("nodes_receive_timeout");
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+    // Nothing published: the wait ends empty instead of hanging.
+    assert!(subscriber.receive_timeout(Duration::from_millis(20)).unwrap().is_none());
+
+    // A publisher on another thread (own node) publishes once the subscriber is waiting, and
+    // stays alive until the frame was read (a dropped publisher takes its samples with it).
+    let prefix = b.prefix().to_owned();
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+    let publisher_thread = std::thread::spawn(move || {
+        let b = Bridge::open(&BridgeConfig::with_prefix(&prefix)).unwrap();
+        let publisher = NodesPublisher::create(&b, 10).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        let delivered = publisher.publish_from_fn(42, 1, 0.001, 10, |i| position(42, i)).unwrap();
+        let _ = done_rx.recv_timeout(WATCHDOG);
+        delivered
+    });
+    let frame = subscriber.receive_timeout(WATCHDOG).unwrap().expect("woken by the publish");
+    assert_eq!(frame.header().sequence, 42);
+    assert_eq!(frame.positions()[9], position(42, 9));
+    done_tx.send(()).unwrap();
+    assert_eq!(publisher_thread.join().unwrap(), 1);
+}
+
+#[test]
+fn nodes_too_many_fails() {
+    let b = bridge("nodes_too_many");
+    let publisher = NodesPublisher::create(&b, 100).unwrap();
+    let too_many = NodesPublishError::TooManyNodes { requested: 101, max: 100 };
+    assert_eq!(publisher.publish_from_fn(0, 0, 0.0, 101, |_| [0.0; 3]), Err(too_many));
+    assert_eq!(publisher.publish(0, 0, 0.0, 101, |_| {}), Err(too_many));
+    assert!(publisher.publish_from_fn(0, 0, 0.0, usize::MAX, |_| [0.0; 3]).is_err());
+    // The limit itself is fine, and the failed calls left the publisher usable.
+    assert!(publisher.publish_from_fn(0, 0, 0.0, 100, |_| [0.0; 3]).is_ok());
+}
+
+#[test]
+fn nodes_stalled_subscriber_works() {
+    let b = bridge("nodes_stalled_subscriber");
+    let publisher = NodesPublisher::create(&b, 2769).unwrap();
+    let stalled = NodesSubscriber::create(&b).unwrap();
+    let mut ok = 0u64;
+    for seq in 0..10_000u64 {
+        if publisher.publish_from_fn(seq, seq, 0.0, 2769, |i| position(seq, i)).is_ok() {
+            ok += 1;
+        }
+    }
+    assert_eq!(ok, 10_000);
+    // Safe overflow kept the newest frames for the subscriber that never read.
+    let newest = stalled.latest().unwrap().expect("buffer holds frames");
+    assert_eq!(newest.header().sequence, 9_999);
+}
+
+#[test]
+fn topology_late_joiner_works() {
+    let b = bridge("topology_late_joiner");
+    let topo = Topology {
+        node_count: 4,
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        layers: vec![
+            LayerRange { name: "skin".into(), first_node: 0, node_count: 2 },
+            LayerRange { name: "muscle".into(), first_node: 2, node_count: 2 },
+        ],
+        tex_coords: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+    };
+    let mut publisher = TopologyPublisher::create(&b, topo.word_count()).unwrap();
+    assert_eq!(publisher.publish(&topo).unwrap(), 0, "nobody subscribed yet");
+
+    let late = TopologySubscriber::create(&b).unwrap();
+    publisher.serve_late_joiners().unwrap();
+    let sample = late.receive_timeout(WATCHDOG).unwrap().expect("history delivered");
+    assert_eq!(sample.header().revision, 0);
+    assert_eq!(sample.decode().unwrap(), topo);
+
+    let bigger = Topology { triangles: vec![[0, 1, 2]; 3], ..topo.clone() };
+    assert!(publisher.publish(&bigger).is_err(), "larger than the publisher's fixed size");
+}
+
+#[test]
+fn feedback_late_joiner_works() {
+    let b = bridge("feedback_late_joiner");
+    let publisher = FeedbackPublisher::create(&b).unwrap();
+    for seq in 0..3u64 {
+        let fb = ContactFeedback {
+            sequence: seq,
+            tick: seq * 10,
+            in_contact: 1,
+            force: [0.0, 0.0, seq as f64],
+            ..ContactFeedback::default()
+        };
+        publisher.publish(&fb).unwrap();
+    }
+    let late = FeedbackSubscriber::create(&b).unwrap();
+    publisher.update_connections().unwrap();
+    let got = late.latest().unwrap().expect("last value delivered");
+    assert_eq!(got.message().sequence, 2);
+    assert_eq!(got.message().force, [0.0, 0.0, 2.0]);
+    assert!(got.message().is_in_contact());
+}
+
+#[test]
+fn tool_late_joiner_works() {
+    let b = bridge("tool_late_joiner");
+    let publisher = ToolPublisher::create(&b).unwrap();
+    for seq in 0..5u64 {
+        let tool = ToolCommand {
+            sequence: seq,
+            position: [0.01 * seq as f64, 0.0, 0.0],
+            buttons: 1,
+            tool_radius_m: 0.002,
+            ..ToolCommand::default()
+        };
+        publisher.publish(&tool).unwrap();
+    }
+    let late = ToolSubscriber::create(&b).unwrap();
+    publisher.update_connections().unwrap();
+    let got = late.receive_timeout(WATCHDOG).unwrap().expect("last value delivered");
+    assert_eq!(got.message().sequence, 4);
+    assert_eq!(got.message().orientation, [0.0, 0.0, 0.0, 1.0]);
+    assert_eq!(got.message().tool_radius_m, 0.002);
+}
+
+#[test]
+fn stats_round_trip_works() {
+    let b = bridge("stats_round_trip");
+    let subscriber = StatsSubscriber::create(&b).unwrap();
+    let publisher = StatsPublisher::create(&b).unwrap();
+    let mut stats = StatsSummary { sequence: 1, ticks: 1000, misses: 2, worst_tick: 17, ..Default::default() };
+    stats.compute.p999_ns = 123_456;
+    publisher.publish(&stats).unwrap();
+    let got = subscriber.receive_timeout(WATCHDOG).unwrap().expect("published");
+    assert_eq!(*got.message(), stats);
+}
+
+#[test]
+fn bridge_invalid_prefix_fails() {
+    assert_eq!(Bridge::open(&BridgeConfig::with_prefix("")).err(), Some(BridgeOpenError::InvalidPrefix));
+    let cfg = BridgeConfig { file_prefix: Some("bad/name".into()), ..BridgeConfig::with_prefix("ok") };
+    assert_eq!(Bridge::open(&cfg).err(), Some(BridgeOpenError::InvalidFilePrefix));
+}

@@ -1,0 +1,97 @@
+//! The core process's side of the bridge: topology once (with history for late joiners),
+//! node positions every tick written straight into shared memory, the deadline monitor's
+//! summary every second. Publishing never waits for a subscriber (see `lamina-bridge`).
+
+use lamina_bridge::{
+    Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, Topology, TopologyPublisher, now_ns,
+};
+use lamina_core::model::Model;
+use lamina_core::real::Real;
+use lamina_core::solver::State;
+use lamina_rt::MonitorSummary;
+
+/// Publishers of one core process.
+pub struct CorePublisher {
+    // Field order is drop order: ports before the node that owns them.
+    nodes: NodesPublisher,
+    stats: StatsPublisher,
+    _topology: TopologyPublisher,
+    _bridge: Bridge,
+    stats_sequence: u64,
+    /// Frames published.
+    pub sequence: u64,
+    /// Publishes that failed (the tick went on).
+    pub failures: u64,
+}
+
+/// The model's static part for viewers and tools: outer surface, layer node ranges.
+pub fn topology_of(model: &Model) -> Topology {
+    let mut layers: Vec<LayerRange> = Vec::new();
+    let mut start = 0usize;
+    let kinds = &model.nodes.layer;
+    for i in 1..=kinds.len() {
+        if i == kinds.len() || kinds[i] != kinds[start] {
+            let name = model.layers.get(kinds[start] as usize).map_or("layer".to_string(), |l| l.name.clone());
+            layers.push(LayerRange { name, first_node: start as u32, node_count: (i - start) as u32 });
+            start = i;
+        }
+    }
+    layers.truncate(lamina_bridge::wire::MAX_LAYERS);
+    Topology {
+        node_count: model.nodes.len() as u32,
+        triangles: model.surfaces.iter().flat_map(|s| s.triangles.iter().copied()).collect(),
+        layers,
+        tex_coords: model.nodes.texcoord.iter().map(|t| [t[0], t[1]]).collect(),
+    }
+}
+
+impl CorePublisher {
+    /// Opens the bridge under `prefix` and publishes the topology.
+    pub fn open(prefix: &str, model: &Model) -> Result<Self, String> {
+        let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(|e| format!("bridge: {e}"))?;
+        let topology = topology_of(model);
+        let mut topo_pub =
+            TopologyPublisher::create(&bridge, topology.word_count()).map_err(|e| format!("topology service: {e}"))?;
+        topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;
+        let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| format!("nodes service: {e}"))?;
+        let stats = StatsPublisher::create(&bridge).map_err(|e| format!("stats service: {e}"))?;
+        Ok(Self { nodes, stats, _topology: topo_pub, _bridge: bridge, stats_sequence: 0, sequence: 0, failures: 0 })
+    }
+
+    /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.
+    pub fn publish_nodes<T: Real>(&mut self, tick: u64, state: &State<T>) {
+        let (x, y, z) = (&state.x.x, &state.x.y, &state.x.z);
+        let n = x.len();
+        let result = self.nodes.publish_from_fn(self.sequence, tick, state.time, n, |i| {
+            [x[i].to_f64() as f32, y[i].to_f64() as f32, z[i].to_f64() as f32]
+        });
+        match result {
+            Ok(_) => self.sequence += 1,
+            Err(_) => self.failures += 1,
+        }
+    }
+
+    /// Publishes the monitor's summary.
+    pub fn publish_stats(&mut self, s: &MonitorSummary) {
+        let p = |q: &lamina_rt::Percentiles| lamina_bridge::Percentiles {
+            p50_ns: q.p50_ns,
+            p99_ns: q.p99_ns,
+            p999_ns: q.p999_ns,
+            max_ns: q.max_ns,
+        };
+        let msg = StatsSummary {
+            sequence: self.stats_sequence,
+            publish_time_ns: now_ns(),
+            ticks: s.ticks,
+            misses: s.misses,
+            lateness: p(&s.lateness),
+            compute: p(&s.compute),
+            period: p(&s.period),
+            worst_tick: s.worst.as_slice().first().map_or(0, |w| w.tick),
+        };
+        self.stats_sequence += 1;
+        if self.stats.publish(&msg).is_err() {
+            self.failures += 1;
+        }
+    }
+}
