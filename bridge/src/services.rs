@@ -46,8 +46,9 @@ pub const MAX_PUBLISHERS: usize = 2;
 pub const MAX_SERVICE_NODES: usize = 20;
 /// Samples a subscriber may hold at once before returning them.
 pub const MAX_BORROWED_SAMPLES: usize = 2;
-/// Subscriber buffer of the `nodes` service: frames queued before the oldest is dropped.
-pub const NODES_BUFFER_SIZE: usize = 4;
+/// Subscriber buffer of the `nodes` service: frames queued before the oldest is dropped
+/// (16 ticks at 1 kHz: a haptics process descheduled for up to 16 ms still sees every frame).
+pub const NODES_BUFFER_SIZE: usize = 16;
 /// Subscriber buffer of the `topology` service.
 pub const TOPOLOGY_BUFFER_SIZE: usize = 1;
 /// Maximum listeners (blocking subscribers) per wake-up event service.

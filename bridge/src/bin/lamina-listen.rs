@@ -80,6 +80,8 @@ struct Report {
     resets: u64,
     receive_errors: u64,
     last_node_count: Option<u32>,
+    /// Time from subscribing to the first frame, ns: how soon a (re)started subscriber is fed.
+    first_frame_after_ns: Option<u64>,
     latency: LatencyReport,
     #[serde(skip_serializing_if = "Option::is_none")]
     sequences: Option<Vec<u64>>,
@@ -148,7 +150,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let subscriber = NodesSubscriber::create(&bridge)?;
 
     let mut tally = Tally {
-        histogram: Histogram::new(3)?,
+        histogram: Histogram::new_with_bounds(1, 60_000_000_000, 3)?,
         count: 0,
         first: None,
         last: None,
@@ -159,6 +161,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         sequences: args.record_sequences.then(Vec::new),
     };
     let mut receive_errors = 0u64;
+    let mut first_frame_after_ns = None;
     let start = Instant::now();
     let run_for = Duration::try_from_secs_f64(args.seconds.max(0.0)).unwrap_or(Duration::MAX);
     let slice = Duration::from_millis(50);
@@ -173,6 +176,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             Ok(Some(frame)) => {
                 let now = now_ns();
                 let h = frame.header();
+                first_frame_after_ns.get_or_insert(start.elapsed().as_nanos() as u64);
                 tally.record(h.sequence, now.saturating_sub(h.publish_time_ns), h.node_count);
                 drop(frame);
                 if args.print_every > 0 && tally.count.is_multiple_of(args.print_every) {
@@ -223,6 +227,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         resets: tally.resets,
         receive_errors,
         last_node_count: tally.node_count,
+        first_frame_after_ns,
         latency,
         sequences: tally.sequences,
     };

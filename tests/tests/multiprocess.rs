@@ -1,0 +1,153 @@
+//! The core and its subscribers as real processes: subscribers killed with SIGKILL and
+//! restarted while the core runs, and a core killed and restarted under running subscribers.
+//! Timing bounds here detect stalls (a blocked send lasts seconds), not speed.
+
+use lamina_tests::{kill9, read_json, realtime_prefix, unique_prefix, wait_with_watchdog, workspace_bin};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn core(prefix: &str, seconds: f64, ticks_csv: Option<&Path>) -> Command {
+    let mut cmd = Command::new(workspace_bin("lamina"));
+    cmd.args(["run", "--quiet", "--prefix", prefix, "--seconds", &seconds.to_string()]);
+    if let Some(p) = ticks_csv {
+        cmd.arg("--ticks-csv").arg(p);
+    }
+    cmd.stdout(Stdio::piped()).stderr(Stdio::inherit());
+    cmd
+}
+
+fn listener(prefix: &str, mode: &str, seconds: f64, out: &Path, extra: &[&str]) -> Command {
+    let mut cmd = Command::new(workspace_bin("lamina-listen"));
+    cmd.args(["--prefix", prefix, "--mode", mode, "--seconds", &seconds.to_string(), "--out"]).arg(out).args(extra);
+    cmd
+}
+
+/// The two scenarios run one after the other: each loads both CPUs of a small machine.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+struct TickRow {
+    tick: u64,
+    send_ns: u64,
+}
+
+fn read_ticks(path: &Path) -> Vec<TickRow> {
+    let text = std::fs::read_to_string(path).expect("tick records");
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<u64> = l.split(',').map(|v| v.parse().expect("integer")).collect();
+            TickRow { tick: f[0], send_ns: f[4] }
+        })
+        .collect()
+}
+
+#[test]
+fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = std::env::temp_dir().join(unique_prefix("mp_kill"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let prefix = unique_prefix("kill");
+    let ticks = dir.join("ticks.csv");
+    let mut core_proc = core(&prefix, 6.0, Some(&ticks)).spawn().expect("starting lamina run");
+    // A haptics-like subscriber that must see every frame: real-time priority, woken by the
+    // core's event (a busy-polling SCHED_FIFO task would be throttled by the kernel's
+    // real-time bandwidth limit, 50 ms in every second by default).
+    let haptics_out = dir.join("haptics.json");
+    let rt = realtime_prefix(60);
+    // The core pins itself to the last CPU; the haptics-like listener takes the first.
+    let mut haptics = if rt.is_empty() {
+        listener(&prefix, "block", 7.0, &haptics_out, &["--pin", "0"]).spawn()
+    } else {
+        let l = listener(&prefix, "block", 7.0, &haptics_out, &["--pin", "0"]);
+        Command::new(&rt[0]).args(&rt[1..]).arg(l.get_program()).args(l.get_args()).spawn()
+    }
+    .expect("starting the haptics-like listener");
+    std::thread::sleep(Duration::from_millis(700));
+
+    let mut kills = Vec::new();
+    for round in 0..20 {
+        let out = dir.join(format!("killed_{round}.json"));
+        let mut child = listener(&prefix, "block", 30.0, &out, &["--print-every", "1"])
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("starting a listener");
+        // It must receive before we kill it: the first progress line.
+        let stdout = child.stdout.take().unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut line = String::new();
+            let _ = BufReader::new(stdout).read_line(&mut line);
+            let _ = tx.send(line);
+        });
+        let line = rx.recv_timeout(Duration::from_secs(5)).unwrap_or_default();
+        assert!(line.starts_with("received"), "round {round}: the restarted listener received nothing: {line:?}");
+        std::thread::sleep(Duration::from_millis(50));
+        kills.push(Instant::now());
+        kill9(&mut child);
+    }
+    // One more restart that exits cleanly and reports how soon it was fed.
+    let last_out = dir.join("last.json");
+    let mut last = listener(&prefix, "block", 0.5, &last_out, &[]).spawn().unwrap();
+    wait_with_watchdog(&mut last, Duration::from_secs(10), "last listener");
+    let report = read_json(&last_out);
+    assert!(report["count"].as_u64().unwrap() > 100, "{report}");
+    let first_ns = report["first_frame_after_ns"].as_u64().expect("received a frame");
+    assert!(first_ns < 50_000_000, "a restarted subscriber is fed within a few ticks, took {first_ns} ns");
+
+    let status = wait_with_watchdog(&mut core_proc, Duration::from_secs(30), "lamina run");
+    assert!(status.success(), "the core exited with {status}");
+    let mut core_stdout = String::new();
+    std::io::Read::read_to_string(&mut core_proc.stdout.take().unwrap(), &mut core_stdout).unwrap();
+    wait_with_watchdog(&mut haptics, Duration::from_secs(30), "haptics listener");
+
+    // The core's per-tick record: every tick present, none held up in a send.
+    let rows = read_ticks(&ticks);
+    assert!(rows.len() > 5000, "expected about 6000 ticks, got {}", rows.len());
+    for w in rows.windows(2) {
+        assert_eq!(w[1].tick, w[0].tick + 1, "tick records are consecutive");
+    }
+    let worst = rows.iter().max_by_key(|r| r.send_ns).unwrap();
+    assert!(
+        worst.send_ns < 5_000_000,
+        "tick {} spent {} ns in send: a subscriber held the core up",
+        worst.tick,
+        worst.send_ns
+    );
+
+    // The haptics-like subscriber saw every sequence number.
+    let h = read_json(&haptics_out);
+    let published: u64 = core_stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("published ").and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()))
+        .expect("the core reports how many frames it published");
+    assert_eq!(h["missing"].as_u64(), Some(0), "haptics listener missed frames: {h}");
+    assert_eq!(h["gaps"].as_u64(), Some(0), "{h}");
+    assert_eq!(h["count"].as_u64(), Some(published), "every one of the {published} frames: {h}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn core_killed_and_restarted_is_picked_up_by_subscribers_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = std::env::temp_dir().join(unique_prefix("mp_core"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let prefix = unique_prefix("restart");
+    let out = dir.join("listener.json");
+    let mut sub = listener(&prefix, "block", 6.0, &out, &[]).spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let mut first = core(&prefix, 30.0, None).stdout(Stdio::null()).spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    kill9(&mut first);
+    std::thread::sleep(Duration::from_millis(300));
+    let mut second = core(&prefix, 2.0, None).stdout(Stdio::null()).spawn().unwrap();
+    let status = wait_with_watchdog(&mut second, Duration::from_secs(30), "restarted core");
+    assert!(status.success());
+    wait_with_watchdog(&mut sub, Duration::from_secs(30), "listener");
+    let r = read_json(&out);
+    assert!(r["resets"].as_u64().unwrap() >= 1, "the listener saw the core restart (sequence back to 0): {r}");
+    assert!(r["last_sequence"].as_u64().unwrap() >= 1000, "and went on receiving from the new core: {r}");
+    assert_eq!(r["receive_errors"].as_u64(), Some(0), "{r}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
