@@ -65,6 +65,21 @@ enum Command {
         #[arg(long)]
         vtu: Option<PathBuf>,
     },
+    /// Cross-process profile: core-to-subscriber latency (poll and block), jitter, misses.
+    Profile {
+        /// Scene for the core run; the built-in default when omitted.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Seconds per measurement.
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f64,
+        /// Node counts for the synthetic publisher, comma-separated.
+        #[arg(long, default_value = "2769,100000")]
+        nodes: String,
+        /// Output folder.
+        #[arg(long, default_value = "out/profile")]
+        out: PathBuf,
+    },
     /// Accuracy-versus-time and hard-case stability studies.
     Study {
         #[command(subcommand)]
@@ -161,6 +176,10 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Profile { scene, seconds, nodes, out } => {
+            let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
+            cli::profile::profile(scene.as_deref(), seconds, &sizes, &out)
+        }
         Command::Generate { table3, cylinder, length, out, vtu } => {
             if table3 {
                 cli::generate::table3()

@@ -50,6 +50,9 @@ struct Args {
     /// Include every sequence number seen in the report.
     #[arg(long)]
     record_sequences: bool,
+    /// Also write the latency histogram as CSV (`latency_ns,quantile,count`).
+    #[arg(long)]
+    histogram: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Default, Serialize)]
@@ -231,6 +234,20 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         latency,
         sequences: tally.sequences,
     };
+    if let Some(path) = &args.histogram {
+        let mut csv = String::from("latency_ns,quantile,count\n");
+        if tally.count > 0 {
+            for v in tally.histogram.iter_quantiles(2) {
+                csv.push_str(&format!(
+                    "{},{},{}\n",
+                    v.value_iterated_to(),
+                    v.quantile_iterated_to(),
+                    v.count_since_last_iteration()
+                ));
+            }
+        }
+        std::fs::write(path, csv)?;
+    }
     let json = serde_json::to_string_pretty(&report)?;
     match &args.out {
         Some(path) => {

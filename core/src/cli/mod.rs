@@ -5,6 +5,7 @@ pub mod bench_yardstick;
 pub mod generate;
 pub mod machine;
 pub mod plot_font;
+pub mod profile;
 pub mod publish;
 pub mod run;
 pub mod study;

@@ -1,0 +1,242 @@
+//! `lamina profile`: one-way latency from the core to its subscribers, period jitter and
+//! deadline misses, measured with real processes: the core (`lamina run`) or the synthetic
+//! publisher (`lamina-publish-probe`, to sweep node counts without the physics), each with a
+//! polling and a blocking `lamina-listen`. Writes JSON reports, latency histograms (CSV) and a
+//! percentile plot (PNG).
+
+use super::machine;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+fn sibling(name: &str) -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let path = exe.with_file_name(name);
+    if path.exists() {
+        Ok(path)
+    } else {
+        Err(format!(
+            "{} not found beside lamina: build it with `cargo build --release -p lamina-bridge`",
+            path.display()
+        ))
+    }
+}
+
+fn json(path: &Path) -> Result<serde_json::Value, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn wait(mut child: Child, what: &str) -> Result<(), String> {
+    let status = child.wait().map_err(|e| format!("{what}: {e}"))?;
+    if status.success() { Ok(()) } else { Err(format!("{what} exited with {status}")) }
+}
+
+/// One measured configuration.
+struct Row {
+    source: String,
+    nodes: u64,
+    mode: &'static str,
+    report: serde_json::Value,
+    histogram: PathBuf,
+}
+
+/// Starts one listener (`poll` or `block`, pinned to CPU 0; the publisher takes the last CPU).
+/// Poll and block are measured in separate runs: a polling subscriber occupies its CPU.
+fn listeners(
+    prefix: &str,
+    seconds: f64,
+    out: &Path,
+    tag: &str,
+    mode: &'static str,
+) -> Result<Vec<(Child, &'static str, PathBuf, PathBuf)>, String> {
+    let listen = sibling("lamina-listen")?;
+    let mut v = Vec::new();
+    {
+        let cpu = "0";
+        let json = out.join(format!("{tag}_{mode}.json"));
+        let hist = out.join(format!("{tag}_{mode}_histogram.csv"));
+        let child = Command::new(&listen)
+            .args(["--prefix", prefix, "--mode", mode, "--pin", cpu, "--seconds", &format!("{}", seconds + 1.5)])
+            .arg("--out")
+            .arg(&json)
+            .arg("--histogram")
+            .arg(&hist)
+            .stdout(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("lamina-listen: {e}"))?;
+        v.push((child, mode, json, hist));
+    }
+    std::thread::sleep(Duration::from_millis(400));
+    Ok(v)
+}
+
+/// Runs the profile and prints the table.
+pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let pid = std::process::id();
+    let mut rows: Vec<Row> = Vec::new();
+    // The real core, with its physics.
+    let mut core_report = None;
+    for mode in ["poll", "block"] {
+        let prefix = format!("profile_core_{mode}_{pid}");
+        let subs = listeners(&prefix, seconds, out, "core", mode)?;
+        let report = out.join(format!("core_report_{mode}.json"));
+        let mut cmd = Command::new(std::env::current_exe().map_err(|e| e.to_string())?);
+        cmd.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &seconds.to_string(), "--report"]).arg(&report);
+        if let Some(s) = scene {
+            cmd.arg("--scene").arg(s);
+        }
+        let core = cmd.stdout(Stdio::null()).spawn().map_err(|e| format!("lamina run: {e}"))?;
+        wait(core, "lamina run")?;
+        let nodes = {
+            let scene = super::run::load_scene(&scene.map(Path::to_path_buf))?;
+            scene.build_model().map_err(|e| e.to_string())?.nodes.len() as u64
+        };
+        for (child, mode, json_path, hist) in subs {
+            wait(child, "lamina-listen")?;
+            rows.push(Row { source: "core".into(), nodes, mode, report: json(&json_path)?, histogram: hist });
+        }
+        if mode == "block" {
+            core_report = Some(json(&report)?);
+        }
+    }
+    // The synthetic publisher at each node count.
+    let probe = sibling("lamina-publish-probe")?;
+    for (&n, mode) in sizes.iter().flat_map(|n| [(n, "poll"), (n, "block")]) {
+        let prefix = format!("profile_probe_{n}_{mode}_{pid}");
+        let subs = listeners(&prefix, seconds, out, &format!("probe_{n}"), mode)?;
+        let child = Command::new(&probe)
+            .args([
+                "--nodes",
+                &n.to_string(),
+                "--rate",
+                "1000",
+                "--seconds",
+                &seconds.to_string(),
+                "--prefix",
+                &prefix,
+                "--pin",
+                "1",
+            ])
+            .stdout(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("lamina-publish-probe: {e}"))?;
+        wait(child, "lamina-publish-probe")?;
+        for (child, mode, json_path, hist) in subs {
+            wait(child, "lamina-listen")?;
+            rows.push(Row { source: "probe".into(), nodes: n, mode, report: json(&json_path)?, histogram: hist });
+        }
+    }
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "cross-process profile; machine: {}; load average {}",
+        machine::describe(),
+        load.split(' ').take(3).collect::<Vec<_>>().join(" ")
+    );
+    println!(
+        "one-way latency, publisher timestamp before send() to subscriber after receive(), 1 kHz, {seconds} s each"
+    );
+    println!(
+        "{:<7} {:>7} {:<6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9}",
+        "source", "nodes", "mode", "frames", "missing", "p50 us", "p99 us", "p99.9 us", "max us"
+    );
+    let us = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN) / 1e3;
+    for r in &rows {
+        let l = &r.report["latency"];
+        println!(
+            "{:<7} {:>7} {:<6} {:>7} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>9.2}",
+            r.source,
+            r.nodes,
+            r.mode,
+            r.report["count"],
+            r.report["missing"],
+            us(&l["p50_ns"]),
+            us(&l["p99_ns"]),
+            us(&l["p999_ns"]),
+            us(&l["max_ns"])
+        );
+    }
+    if let Some(c) = &core_report {
+        println!("(core loop figures from the run with the blocking subscriber)");
+        let s = c;
+        let pick = |k: &str, q: &str| s[k][q].as_f64().unwrap_or(f64::NAN) / 1e3;
+        println!(
+            "\ncore loop: ticks {}, misses {}; period p50 {:.1} us p99 {:.1} us p99.9 {:.1} us max {:.1} us; \
+             wake-up lateness p99 {:.1} us max {:.1} us; compute p50 {:.1} us p99 {:.1} us; send p50 {:.1} us p99 {:.1} us",
+            s["ticks"],
+            s["misses"],
+            pick("period", "p50_ns"),
+            pick("period", "p99_ns"),
+            pick("period", "p999_ns"),
+            pick("period", "max_ns"),
+            pick("lateness", "p99_ns"),
+            pick("lateness", "max_ns"),
+            pick("compute", "p50_ns"),
+            pick("compute", "p99_ns"),
+            pick("send", "p50_ns"),
+            pick("send", "p99_ns")
+        );
+    }
+    plot(&out.join("latency_percentiles.png"), &rows)?;
+    println!("\nreports, histograms (CSV) and latency_percentiles.png written to {}", out.display());
+    Ok(())
+}
+
+fn plot(path: &Path, rows: &[Row]) -> Result<(), String> {
+    let series: Vec<(String, Vec<(f64, f64)>)> = rows
+        .iter()
+        .filter_map(|r| {
+            let text = std::fs::read_to_string(&r.histogram).ok()?;
+            let pts: Vec<(f64, f64)> = text
+                .lines()
+                .skip(1)
+                .filter_map(|l| {
+                    let f: Vec<f64> = l.split(',').filter_map(|v| v.parse().ok()).collect();
+                    (f.len() == 3 && f[1] < 1.0).then(|| (1.0 / (1.0 - f[1]), f[0].max(1.0) / 1e3))
+                })
+                .collect();
+            (!pts.is_empty()).then(|| (format!("{} {} nodes {}", r.source, r.nodes, r.mode), pts))
+        })
+        .collect();
+    if series.is_empty() {
+        return Ok(());
+    }
+    let ymax = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(1.0f64, f64::max);
+    let xmax = series.iter().flat_map(|s| s.1.iter().map(|p| p.0)).fold(10.0f64, f64::max);
+    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let font = super::plot_font::font_available();
+    let mut builder = ChartBuilder::on(&root);
+    builder.margin(20).x_label_area_size(if font { 50 } else { 10 }).y_label_area_size(if font { 70 } else { 10 });
+    if font {
+        builder.caption("one-way latency percentiles (x: 1/(1-q), 10 = p90, 1000 = p99.9)", ("sans-serif", 18));
+    }
+    let mut chart = builder
+        .build_cartesian_2d((1.0..xmax * 1.5).log_scale(), (0.1..ymax * 2.0).log_scale())
+        .map_err(|e| e.to_string())?;
+    let mut mesh = chart.configure_mesh();
+    if font {
+        mesh.x_desc("1 / (1 - quantile)").y_desc("latency (us)");
+    } else {
+        mesh.disable_x_axis().disable_y_axis();
+    }
+    mesh.draw().map_err(|e| e.to_string())?;
+    for (k, (name, pts)) in series.iter().enumerate() {
+        let c = Palette99::pick(k).to_rgba();
+        let s = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2))).map_err(|e| e.to_string())?;
+        if font {
+            s.label(name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        }
+    }
+    if font {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
