@@ -1,5 +1,300 @@
-//! The Lamina viewer process (renderer). Not built yet: see issue 8.
-fn main() {
-    eprintln!("lamina-viewer: the renderer is not implemented yet (issue 8)");
-    std::process::exit(2);
+//! `lamina-viewer`: the renderer process. See the library docs for how a frame is made.
+//!
+//! ```text
+//! lamina-viewer --headless --synthetic --frames 60 --out frames/      # no core needed
+//! lamina-viewer --headless --frames 300 --every 10 --out frames/      # live core, prefix lamina
+//! lamina-viewer --synthetic                                           # window (feature `window`)
+//! ```
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use clap::{Parser, ValueEnum};
+use lamina_viewer::app::{HeadlessViewer, Hud, ViewerOptions};
+use lamina_viewer::mesh_build::{MeshOptions, SpringDisplay};
+use lamina_viewer::png_io::write_png;
+use lamina_viewer::source::{FrameSource, LiveSource, SourceEvent, SyntheticSource};
+use lamina_viewer::timing::{FrameTimes, Samples, elapsed_ns, ms};
+use lamina_viewer::view_model::{Frame, ViewModel};
+
+/// Which springs the wireframe shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Springs {
+    /// None.
+    Off,
+    /// Those on the side the cut removes.
+    Removed,
+    /// All.
+    All,
+}
+
+/// Lamina's viewer: draws the layered tissue published by the core (or a built-in limb).
+#[derive(Debug, Parser)]
+#[command(name = "lamina-viewer", version)]
+struct Args {
+    /// iceoryx2 service prefix of the simulation (as given to the core).
+    #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Render offscreen and write PNG frames instead of opening a window.
+    #[arg(long)]
+    headless: bool,
+    /// Stop after this many frames (default: run until SIGINT/SIGTERM).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Directory for PNG frames (headless). Without it no files are written.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Image size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Draw the built-in animated limb instead of subscribing to a core.
+    #[arg(long)]
+    synthetic: bool,
+    /// Write every Nth frame to --out.
+    #[arg(long, default_value_t = 1)]
+    every: u64,
+    /// Scene file the core runs (TOML): supplies grids and springs the wire does not carry.
+    /// Default: the built-in default scene, used when its node count matches the core's.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Samples per pixel: 1 or 4.
+    #[arg(long, default_value_t = 4, value_parser = parse_samples)]
+    samples: u32,
+    /// Angle threshold φ of the adaptive patching, degrees (the paper: 10).
+    #[arg(long, default_value_t = 10.0)]
+    phi_deg: f64,
+    /// Spring wireframe.
+    #[arg(long, value_enum, default_value_t = Springs::Removed)]
+    springs: Springs,
+    /// Do not cut the model open.
+    #[arg(long)]
+    no_cut: bool,
+    /// No text overlay.
+    #[arg(long)]
+    no_overlay: bool,
+    /// Give up after waiting this long for the core without receiving anything, seconds
+    /// (default: wait forever).
+    #[arg(long)]
+    wait_limit_s: Option<f64>,
+    /// Print a timing line for every frame (default: every frame when --frames ≤ 100, else
+    /// once per second).
+    #[arg(long)]
+    verbose: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 1280x720")?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("{v}: {e}"));
+    let (w, h) = (parse(w)?, parse(h)?);
+    if w == 0 || h == 0 || w > 8192 || h > 8192 {
+        return Err("width and height must be 1..=8192".into());
+    }
+    Ok((w, h))
+}
+
+fn parse_samples(s: &str) -> Result<u32, String> {
+    match s {
+        "1" => Ok(1),
+        "4" => Ok(4),
+        _ => Err("samples per pixel must be 1 or 4".into()),
+    }
+}
+
+fn options(args: &Args) -> ViewerOptions {
+    ViewerOptions {
+        width: args.size.0,
+        height: args.size.1,
+        samples: args.samples,
+        mesh: MeshOptions {
+            phi: args.phi_deg.max(0.1).to_radians(),
+            springs: match args.springs {
+                Springs::Off => SpringDisplay::Off,
+                Springs::Removed => SpringDisplay::RemovedSide,
+                Springs::All => SpringDisplay::All,
+            },
+            ..MeshOptions::default()
+        },
+        cut: !args.no_cut,
+        overlay: !args.no_overlay,
+    }
+}
+
+/// The full model for the live source: the scene the core runs.
+fn reference_model(args: &Args) -> Result<ViewModel, String> {
+    use lamina_core::scene::Scene;
+    let scene = match &args.scene {
+        Some(path) => Scene::load(path).map_err(|e| e.to_string())?,
+        None => Scene::builtin_default(),
+    };
+    let model = scene.build_model().map_err(|e| e.to_string())?;
+    Ok(ViewModel::from_core_model(&model))
+}
+
+fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
+    if args.synthetic {
+        return Ok(Box::new(SyntheticSource::default()));
+    }
+    let reference = match reference_model(args) {
+        Ok(m) => Some(m),
+        Err(e) if args.scene.is_some() => return Err(e),
+        Err(_) => None,
+    };
+    Ok(Box::new(LiveSource::open(&args.prefix, reference).map_err(|e| e.to_string())?))
+}
+
+/// Rolling figures for the overlay and the exit report.
+#[derive(Default)]
+struct Figures {
+    times: FrameTimes,
+    latency_receive: Samples,
+    latency_drawn: Samples,
+    frame_starts: Vec<Instant>,
+}
+
+impl Figures {
+    fn view_rate(&self) -> f64 {
+        let n = self.frame_starts.len();
+        if n < 2 {
+            return 0.0;
+        }
+        let k = n.min(30);
+        let span = self.frame_starts[n - 1].duration_since(self.frame_starts[n - k]).as_secs_f64();
+        if span > 0.0 { (k - 1) as f64 / span } else { 0.0 }
+    }
+
+    fn hud(&self, source: &str, frame: &Frame, model: &str) -> Hud {
+        let mut lines = vec![format!("LAMINA  {}", model.to_uppercase())];
+        let last = self.times.total.summary_of_last(30);
+        lines.push(format!("VIEW {:.1} FPS  FRAME {:.1} MS", self.view_rate(), ms(last.p50)));
+        if frame.publish_time_ns > 0 {
+            let lat = self.latency_receive.summary_of_last(100);
+            lines.push(format!("LATENCY P50 {:.2} P99 {:.2} MS", ms(lat.p50), ms(lat.p99)));
+        } else {
+            lines.push(format!("LATENCY -  ({source})"));
+        }
+        match frame.stats {
+            Some(s) => lines.push(format!("CORE {:.0} HZ  MISSES {}", s.rate_hz, s.misses)),
+            None => lines.push("CORE -  MISSES -".into()),
+        }
+        lines.push(format!("T {:.3} S  SEQ {}", frame.sim_time_s, frame.sequence));
+        Hud { lines }
+    }
+}
+
+fn run_headless(args: &Args) -> Result<(), String> {
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let mut source = open_source(args)?;
+    let mut viewer = HeadlessViewer::new(options(args)).map_err(|e| e.to_string())?;
+    println!("lamina-viewer: {} on {}, {}x{}", source.describe(), viewer.adapter(), args.size.0, args.size.1);
+    let every = args.every.max(1);
+    let verbose = args.verbose || args.frames.is_some_and(|n| n <= 100);
+    let mut figures = Figures::default();
+    let mut model_name = String::from("no model");
+    let mut rendered = 0u64;
+    let mut idle_since: Option<Instant> = None;
+    let mut last_report = Instant::now();
+    let run_start = Instant::now();
+    while args.frames.is_none_or(|n| rendered < n) && !lamina_bridge::shutdown::requested() {
+        match source.next_event(Duration::from_millis(500)) {
+            SourceEvent::Model(model) => {
+                println!(
+                    "model '{}': {} nodes, {} grids, {} springs",
+                    model.name,
+                    model.node_count,
+                    model.grids.len(),
+                    model.springs.len()
+                );
+                model_name.clone_from(&model.name);
+                viewer.set_model(model);
+            }
+            SourceEvent::Idle(what) => {
+                let since = *idle_since.get_or_insert_with(Instant::now);
+                if last_report.elapsed() >= Duration::from_secs(2) || since.elapsed() < Duration::from_millis(600) {
+                    println!("lamina-viewer: {what}");
+                    last_report = Instant::now();
+                }
+                if args.wait_limit_s.is_some_and(|s| since.elapsed().as_secs_f64() > s) {
+                    println!("lamina-viewer: gave up waiting after {:.1} s", since.elapsed().as_secs_f64());
+                    break;
+                }
+            }
+            SourceEvent::Frame(frame) => {
+                idle_since = None;
+                let start = Instant::now();
+                if frame.publish_time_ns > 0 {
+                    figures.latency_receive.push(lamina_bridge::now_ns().saturating_sub(frame.publish_time_ns));
+                }
+                figures.frame_starts.push(start);
+                let hud = figures.hud(if args.synthetic { "NO CORE" } else { "LIVE" }, &frame, &model_name);
+                let timing = viewer.render(&frame, &hud).map_err(|e| e.to_string())?;
+                if frame.publish_time_ns > 0 {
+                    figures.latency_drawn.push(lamina_bridge::now_ns().saturating_sub(frame.publish_time_ns));
+                }
+                if let Some(dir) = &args.out
+                    && rendered.is_multiple_of(every)
+                {
+                    let (w, h) = viewer.size();
+                    let path = dir.join(format!("frame_{rendered:05}.png"));
+                    write_png(&path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
+                }
+                figures.times.push(&timing, elapsed_ns(start));
+                let stats = viewer.composer().mesh.stats;
+                if verbose || last_report.elapsed() >= Duration::from_secs(1) {
+                    println!(
+                        "frame {rendered:5} seq {:6}: tessellate {:6.2} ms  render {:6.2} ms  readback {:6.2} ms  ({} patches, {} triangles, {} lines)",
+                        frame.sequence,
+                        ms(timing.tessellate_ns),
+                        ms(timing.render_ns),
+                        ms(timing.readback_ns),
+                        stats.patches,
+                        stats.triangles,
+                        stats.lines
+                    );
+                    last_report = Instant::now();
+                }
+                rendered += 1;
+            }
+        }
+    }
+    report(&figures, rendered, run_start.elapsed());
+    Ok(())
+}
+
+fn report(f: &Figures, rendered: u64, wall: Duration) {
+    println!("== lamina-viewer: {rendered} frames in {:.2} s", wall.as_secs_f64());
+    println!("tessellate: {}", f.times.tessellate.summary().to_ms_string());
+    println!("render:     {}", f.times.render.summary().to_ms_string());
+    println!("readback:   {}", f.times.readback.summary().to_ms_string());
+    println!("frame:      {}", f.times.total.summary().to_ms_string());
+    if !f.latency_receive.is_empty() {
+        println!("core-to-viewer latency (publish -> received): {}", f.latency_receive.summary().to_ms_string());
+        println!("core-to-viewer latency (publish -> frame drawn): {}", f.latency_drawn.summary().to_ms_string());
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    lamina_bridge::shutdown::install();
+    let result = if args.headless { run_headless(&args) } else { run_window(&args) };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("lamina-viewer: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(feature = "window")]
+fn run_window(args: &Args) -> Result<(), String> {
+    let source = open_source(args)?;
+    lamina_viewer::window::run(source, options(args), args.frames).map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "window"))]
+fn run_window(_args: &Args) -> Result<(), String> {
+    Err("this build has no window (build with `--features window`); use --headless".into())
 }

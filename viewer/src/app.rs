@@ -1,0 +1,202 @@
+//! One viewer frame from start to finish, shared by the headless loop, the window and the
+//! tests: tessellate → overlay → draw → (read back).
+//!
+//! # Examples
+//!
+//! ```no_run
+//! use lamina_viewer::app::{HeadlessViewer, Hud, ViewerOptions};
+//! use lamina_viewer::source::{FrameSource, SourceEvent, SyntheticSource};
+//! use core::time::Duration;
+//!
+//! # fn main() -> Result<(), Box<dyn core::error::Error>> {
+//! let mut viewer = HeadlessViewer::new(ViewerOptions::default())?;
+//! let mut source = SyntheticSource::default();
+//! let SourceEvent::Model(model) = source.next_event(Duration::ZERO) else { unreachable!() };
+//! viewer.set_model(model);
+//! let SourceEvent::Frame(frame) = source.next_event(Duration::ZERO) else { unreachable!() };
+//! viewer.render(&frame, &Hud::default())?;
+//! assert_eq!(viewer.pixels().len(), 320 * 240 * 4);
+//! # Ok(())
+//! # }
+//! ```
+
+use std::time::Instant;
+
+use crate::camera::{Camera, bounds, default_view};
+use crate::cut::CutPlane;
+use crate::mesh_build::{MeshBuilder, MeshOptions, SceneMesh, SpringDisplay};
+use crate::overlay::{FlatVertex, Overlay, rgba};
+use crate::render::{
+    DrawInput, FrameReadError, GpuContext, OFFSCREEN_FORMAT, Offscreen, Renderer, RendererCreateError, wait_idle,
+};
+use crate::timing::{FrameTiming, elapsed_ns};
+use crate::view_model::{Frame, ViewModel};
+
+/// How the viewer draws. `Default`: 320 × 240, 4× MSAA, paper's φ, cut on, springs on the
+/// removed side, overlay on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewerOptions {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Samples per pixel (1 or 4).
+    pub samples: u32,
+    /// Tessellation and display choices.
+    pub mesh: MeshOptions,
+    /// Whether to cut the model open (the cross-section).
+    pub cut: bool,
+    /// Whether to draw the text overlay and legend.
+    pub overlay: bool,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        Self { width: 320, height: 240, samples: 4, mesh: MeshOptions::default(), cut: true, overlay: true }
+    }
+}
+
+/// The text lines of the overlay panel.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Hud {
+    /// Lines, top to bottom (upper case reads best in the built-in font).
+    pub lines: Vec<String>,
+}
+
+/// The CPU side of a frame: model, fixed view, mesh builder and 2-D layer.
+#[derive(Debug, Default)]
+pub struct Composer {
+    model: Option<ViewModel>,
+    view: Option<(Camera, Option<CutPlane>)>,
+    builder: MeshBuilder,
+    /// The last tessellated mesh.
+    pub mesh: SceneMesh,
+    /// Background triangles of the last frame.
+    pub background: Vec<FlatVertex>,
+    /// Overlay triangles of the last frame.
+    pub overlay: Vec<FlatVertex>,
+}
+
+impl Composer {
+    /// Uses `model` from now on; the view is fixed again from its next frame.
+    pub fn set_model(&mut self, model: ViewModel) {
+        self.model = Some(model);
+        self.view = None;
+    }
+
+    /// The current model.
+    pub fn model(&self) -> Option<&ViewModel> {
+        self.model.as_ref()
+    }
+
+    /// The fixed camera and cut plane (after the first frame of a model).
+    pub fn view(&self) -> Option<(Camera, Option<CutPlane>)> {
+        self.view
+    }
+
+    /// Tessellates `frame` and builds the 2-D layer for a `width × height` image; returns
+    /// the tessellation time, ns.
+    pub fn compose(&mut self, frame: &Frame, options: &ViewerOptions, width: u32, height: u32, hud: &Hud) -> u64 {
+        let start = Instant::now();
+        let aspect = width as f32 / height.max(1) as f32;
+        if let Some(model) = &self.model {
+            if self.view.is_none()
+                && let Some((min, max)) = bounds(&frame.positions[..model.node_count.min(frame.positions.len())])
+            {
+                let (camera, cut) = default_view(min, max, aspect);
+                self.view = Some((camera, options.cut.then_some(cut)));
+            }
+            let mut mesh_options = options.mesh;
+            mesh_options.cut = self.view.and_then(|v| v.1);
+            if mesh_options.cut.is_none() && mesh_options.springs == SpringDisplay::RemovedSide {
+                mesh_options.springs = SpringDisplay::Off;
+            }
+            self.builder.build(model, frame, &mesh_options, &mut self.mesh);
+        }
+        let tessellate_ns = elapsed_ns(start);
+        let mut layer = Overlay::new(width, height);
+        layer.background(rgba([0.20, 0.24, 0.29], 1.0), rgba([0.05, 0.06, 0.08], 1.0));
+        self.background.clone_from(&layer.vertices);
+        layer.vertices.clear();
+        if options.overlay {
+            layer.panel(&hud.lines);
+            layer.legend();
+        }
+        self.overlay.clone_from(&layer.vertices);
+        tessellate_ns
+    }
+
+    /// The inputs of [`Renderer::draw`] for the last composed frame (`None` before a view).
+    pub fn draw_input(&self) -> Option<(Camera, Option<CutPlane>)> {
+        self.view
+    }
+}
+
+/// A viewer that renders offscreen and reads every frame back.
+#[derive(Debug)]
+pub struct HeadlessViewer {
+    gpu: GpuContext,
+    renderer: Renderer,
+    target: Offscreen,
+    options: ViewerOptions,
+    composer: Composer,
+    pixels: Vec<u8>,
+}
+
+impl HeadlessViewer {
+    /// Opens the GPU (software on a machine without one) and builds the pipelines.
+    pub fn new(options: ViewerOptions) -> Result<Self, RendererCreateError> {
+        let gpu = GpuContext::headless()?;
+        let renderer = Renderer::new(&gpu, OFFSCREEN_FORMAT, options.width, options.height, options.samples);
+        let target = Offscreen::new(&gpu, options.width, options.height);
+        Ok(Self { gpu, renderer, target, options, composer: Composer::default(), pixels: Vec::new() })
+    }
+
+    /// The adapter in use, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)".
+    pub fn adapter(&self) -> String {
+        self.gpu.describe()
+    }
+
+    /// Uses `model` from now on.
+    pub fn set_model(&mut self, model: ViewModel) {
+        self.composer.set_model(model);
+    }
+
+    /// The composer (model, view, last mesh).
+    pub fn composer(&self) -> &Composer {
+        &self.composer
+    }
+
+    /// Draws `frame` and reads it back into [`HeadlessViewer::pixels`].
+    pub fn render(&mut self, frame: &Frame, hud: &Hud) -> Result<FrameTiming, FrameReadError> {
+        let (w, h) = (self.options.width, self.options.height);
+        let tessellate_ns = self.composer.compose(frame, &self.options, w, h, hud);
+        let start = Instant::now();
+        let fallback =
+            Camera::framing(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0), glam::Vec3::Z, w as f32 / h as f32);
+        let (camera, cut) = self.composer.draw_input().unwrap_or((fallback, None));
+        let input = DrawInput {
+            mesh: &self.composer.mesh,
+            camera: &camera,
+            cut,
+            background: &self.composer.background,
+            overlay: &self.composer.overlay,
+        };
+        self.renderer.draw(&self.gpu, self.target.view(), &input);
+        wait_idle(&self.gpu);
+        let render_ns = elapsed_ns(start);
+        let start = Instant::now();
+        self.target.read(&self.gpu, &mut self.pixels)?;
+        Ok(FrameTiming { tessellate_ns, render_ns, readback_ns: elapsed_ns(start) })
+    }
+
+    /// The last frame: RGBA8 sRGB, rows top to bottom.
+    pub fn pixels(&self) -> &[u8] {
+        &self.pixels
+    }
+
+    /// Image width and height, pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.options.width, self.options.height)
+    }
+}

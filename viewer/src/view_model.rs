@@ -1,0 +1,282 @@
+//! What the viewer draws, independent of where the frames come from: tissue boundary grids,
+//! other triangle surfaces, the spring network and each node's tissue.
+//!
+//! A [`ViewModel`] is static (it changes only when the core publishes a new topology);
+//! a [`Frame`] carries the positions of one instant plus the tool and the core's statistics.
+
+use glam::Vec3;
+
+/// The tissues the viewer tells apart, each drawn in its own material.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Tissue {
+    /// Skin (epidermis and dermis).
+    Skin,
+    /// Subcutaneous fat.
+    Fat,
+    /// Skeletal muscle.
+    Muscle,
+    /// Bone (cortex).
+    Bone,
+    /// Anything else (drawn neutral grey).
+    Other,
+}
+
+impl Tissue {
+    /// The tissue a layer or surface name refers to: `skin*`, `fat*`/`adipose*`,
+    /// `muscle*`, `bone*`; anything else is [`Tissue::Other`].
+    pub fn from_name(name: &str) -> Self {
+        let lower = name.to_ascii_lowercase();
+        if lower.starts_with("skin") || lower.starts_with("derm") {
+            Tissue::Skin
+        } else if lower.starts_with("fat") || lower.starts_with("adipose") || lower.starts_with("subcut") {
+            Tissue::Fat
+        } else if lower.starts_with("muscle") {
+            Tissue::Muscle
+        } else if lower.starts_with("bone") {
+            Tissue::Bone
+        } else {
+            Tissue::Other
+        }
+    }
+
+    /// The tissue just beneath a boundary surface named after the two tissues it separates
+    /// (`skin_outer` → skin, `skin_fat` → fat, `fat_muscle` → muscle, `muscle_bone` → bone).
+    pub fn beneath_boundary(name: &str) -> Self {
+        match name.rsplit('_').next() {
+            Some("outer") => Tissue::Skin,
+            Some(last) => Tissue::from_name(last),
+            None => Tissue::Other,
+        }
+    }
+}
+
+/// A tissue boundary sampled on a regular grid (the surfaces the paper re-patches).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundaryGrid {
+    /// Surface name, e.g. `skin_outer`.
+    pub name: String,
+    /// Grid points per row (around the limb).
+    pub cols: usize,
+    /// Grid rows (along the limb).
+    pub rows: usize,
+    /// Whether the last column connects back to the first (a closed tube).
+    pub wrap: bool,
+    /// Node index of each grid point, row-major.
+    pub nodes: Vec<u32>,
+    /// Tissue on the inner side of this boundary (the outer skin surface has skin beneath).
+    pub beneath: Tissue,
+}
+
+/// A triangle surface without grid structure, drawn as is (smooth shading, no patches).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleSurface {
+    /// Surface name.
+    pub name: String,
+    /// Node index triples.
+    pub triangles: Vec<[u32; 3]>,
+    /// Tissue the surface is drawn as.
+    pub tissue: Tissue,
+}
+
+/// The static description of a model as the viewer needs it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ViewModel {
+    /// Model name shown in the overlay.
+    pub name: String,
+    /// Number of nodes in every frame.
+    pub node_count: usize,
+    /// Grid boundaries, outermost first (outer skin, skin/fat, fat/muscle, muscle/bone).
+    pub grids: Vec<BoundaryGrid>,
+    /// Surfaces without a grid.
+    pub triangle_surfaces: Vec<TriangleSurface>,
+    /// Springs as node index pairs.
+    pub springs: Vec<[u32; 2]>,
+    /// Tissue of each spring (same length as `springs`).
+    pub spring_tissue: Vec<Tissue>,
+}
+
+impl ViewModel {
+    /// Whether every index is below `node_count` and the per-spring table matches.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.node_count as u32;
+        self.grids.iter().all(|g| {
+            g.nodes.len() == g.cols * g.rows
+                && g.rows >= 2
+                && g.cols >= if g.wrap { 3 } else { 2 }
+                && g.nodes.iter().all(|&i| i < n)
+        }) && self.triangle_surfaces.iter().all(|s| s.triangles.iter().flatten().all(|&i| i < n))
+            && self.springs.iter().flatten().all(|&i| i < n)
+            && self.springs.len() == self.spring_tissue.len()
+    }
+
+    /// Builds the view of a core model: every surface with a grid becomes a [`BoundaryGrid`]
+    /// (a grid whose last column repeats its first is turned into a wrapping one), the others
+    /// triangle surfaces; springs keep their layer's tissue.
+    pub fn from_core_model(model: &lamina_core::model::Model) -> Self {
+        let layer_tissue: Vec<Tissue> = model.layers.iter().map(|l| tissue_of_core(l.tissue)).collect();
+        let mut view = ViewModel { name: model.name.clone(), node_count: model.nodes.len(), ..Self::default() };
+        for surface in &model.surfaces {
+            match &surface.grid {
+                Some((cols, rows, nodes)) => {
+                    let (cols, rows) = (*cols as usize, *rows as usize);
+                    let seam_repeated = cols > 3 && (0..rows).all(|r| nodes[r * cols] == nodes[r * cols + cols - 1]);
+                    let (cols, nodes) = if seam_repeated {
+                        (cols - 1, (0..rows).flat_map(|r| nodes[r * cols..r * cols + cols - 1].to_vec()).collect())
+                    } else {
+                        (cols, nodes.clone())
+                    };
+                    view.grids.push(BoundaryGrid {
+                        name: surface.name.clone(),
+                        cols,
+                        rows,
+                        wrap: seam_repeated,
+                        nodes,
+                        beneath: Tissue::beneath_boundary(&surface.name),
+                    });
+                }
+                None => view.triangle_surfaces.push(TriangleSurface {
+                    name: surface.name.clone(),
+                    triangles: surface.triangles.clone(),
+                    tissue: Tissue::beneath_boundary(&surface.name),
+                }),
+            }
+        }
+        let springs = &model.springs;
+        for s in 0..springs.len() {
+            view.springs.push([springs.a[s], springs.b[s]]);
+            view.spring_tissue.push(layer_tissue.get(springs.layer[s] as usize).copied().unwrap_or(Tissue::Other));
+        }
+        view
+    }
+
+    /// Builds a view from the wire topology alone (no grid, no springs known): the surface
+    /// triangles are drawn as the skin and their edges as the wireframe.
+    pub fn from_wire_topology(topology: &lamina_bridge::Topology) -> Self {
+        let mut edges: Vec<[u32; 2]> = topology
+            .triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let spring_tissue = vec![Tissue::Skin; edges.len()];
+        ViewModel {
+            name: "live model".into(),
+            node_count: topology.node_count as usize,
+            grids: Vec::new(),
+            triangle_surfaces: vec![TriangleSurface {
+                name: "surface".into(),
+                triangles: topology.triangles.clone(),
+                tissue: Tissue::Skin,
+            }],
+            springs: edges,
+            spring_tissue,
+        }
+    }
+}
+
+fn tissue_of_core(t: lamina_core::model::Tissue) -> Tissue {
+    use lamina_core::model::Tissue as T;
+    match t {
+        T::Skin => Tissue::Skin,
+        T::Fat => Tissue::Fat,
+        T::Muscle => Tissue::Muscle,
+        T::Bone => Tissue::Bone,
+        T::Other => Tissue::Other,
+    }
+}
+
+/// The haptic tool as drawn: a sphere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolPose {
+    /// Tip centre, metres, model frame.
+    pub center: Vec3,
+    /// Tip radius, metres.
+    pub radius: f32,
+}
+
+/// The core's real-time figures shown in the overlay.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CoreStats {
+    /// Core tick rate, Hz (from the period median), 0 if unknown.
+    pub rate_hz: f64,
+    /// Ticks that missed their budget since the core started.
+    pub misses: u64,
+    /// Ticks run since the core started.
+    pub ticks: u64,
+}
+
+/// One instant to draw.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Frame {
+    /// Publisher's frame counter.
+    pub sequence: u64,
+    /// Simulated time, seconds.
+    pub sim_time_s: f64,
+    /// `CLOCK_MONOTONIC` when the core published it, ns (0 for synthetic frames).
+    pub publish_time_ns: u64,
+    /// Node positions, metres (`ViewModel::node_count` entries).
+    pub positions: Vec<Vec3>,
+    /// The tool, when known.
+    pub tool: Option<ToolPose>,
+    /// The core's latest statistics, when known.
+    pub stats: Option<CoreStats>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tissue_beneath_boundary_works() {
+        assert_eq!(Tissue::beneath_boundary("skin_outer"), Tissue::Skin);
+        assert_eq!(Tissue::beneath_boundary("skin_fat"), Tissue::Fat);
+        assert_eq!(Tissue::beneath_boundary("fat_muscle"), Tissue::Muscle);
+        assert_eq!(Tissue::beneath_boundary("muscle_bone"), Tissue::Bone);
+        assert_eq!(Tissue::beneath_boundary("whatever"), Tissue::Other);
+    }
+
+    #[test]
+    fn view_of_core_default_scene_works() {
+        let scene = lamina_core::scene::Scene::builtin_default();
+        let model = scene.build_model().expect("built-in scene builds");
+        let view = ViewModel::from_core_model(&model);
+        assert!(view.is_consistent());
+        assert_eq!(view.node_count, model.nodes.len());
+        assert_eq!(view.springs.len(), model.springs.len());
+        let skin = &view.grids[0];
+        assert_eq!((skin.name.as_str(), skin.beneath, skin.wrap), ("skin_outer", Tissue::Skin, false));
+    }
+
+    #[test]
+    fn view_of_core_grid_with_repeated_seam_wraps_works() {
+        use lamina_core::model::{Model, NodeKind, Surface};
+        let (w, h) = (6u32, 3u32);
+        let mut model = Model::default();
+        for _ in 0..w * h {
+            model.nodes.push([0.0; 3], 1.0, NodeKind::Free, 0);
+        }
+        // Columns 0..w, then column 0 again as column w (the generator's seam convention).
+        let grid = (0..h).flat_map(|r| (0..=w).map(move |c| r * w + c % w)).collect();
+        model.surfaces.push(Surface { name: "skin_outer".into(), triangles: Vec::new(), grid: Some((w + 1, h, grid)) });
+        let view = ViewModel::from_core_model(&model);
+        let g = &view.grids[0];
+        assert!(g.wrap);
+        assert_eq!((g.cols, g.rows, g.nodes.len()), (w as usize, h as usize, (w * h) as usize));
+        assert!(view.is_consistent());
+    }
+
+    #[test]
+    fn view_of_wire_topology_works() {
+        let topology = lamina_bridge::Topology {
+            node_count: 4,
+            triangles: vec![[0, 1, 2], [2, 1, 3]],
+            layers: Vec::new(),
+            tex_coords: Vec::new(),
+        };
+        let view = ViewModel::from_wire_topology(&topology);
+        assert_eq!(view.springs.len(), 5, "shared edge counted once");
+        assert!(view.is_consistent());
+    }
+}

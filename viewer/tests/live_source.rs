@@ -1,0 +1,102 @@
+//! The live source against a stand-in core publishing over iceoryx2 in another thread:
+//! the viewer subscribes before the core exists, gets the model and frames, and carries on
+//! when the core restarts (its sequence starts again at 0).
+
+use core::time::Duration;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use lamina_bridge::{Bridge, BridgeConfig, LayerRange, NodesPublisher, Topology, TopologyPublisher};
+use lamina_viewer::source::{FrameSource, LiveSource, SourceEvent};
+use lamina_viewer::synthetic::SyntheticLimb;
+
+/// A stand-in core: publishes the topology, then `frames` node frames of the synthetic limb.
+fn run_core(prefix: String, frames: u64, stop: Arc<AtomicBool>) {
+    let limb = SyntheticLimb::default();
+    let model = limb.view_model();
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+    let triangles = model.grids[0]
+        .nodes
+        .chunks(model.grids[0].cols)
+        .collect::<Vec<_>>()
+        .windows(2)
+        .flat_map(|rows| {
+            let (a, b) = (rows[0], rows[1]);
+            (0..a.len()).flat_map(move |c| {
+                let d = (c + 1) % a.len();
+                [[a[c], a[d], b[d]], [a[c], b[d], b[c]]]
+            })
+        })
+        .collect();
+    let topology = Topology {
+        node_count: model.node_count as u32,
+        triangles,
+        layers: vec![LayerRange { name: "skin".into(), first_node: 0, node_count: model.node_count as u32 }],
+        tex_coords: Vec::new(),
+    };
+    let mut topo_pub = TopologyPublisher::create(&bridge, topology.word_count()).expect("topology publisher");
+    let nodes_pub = NodesPublisher::create(&bridge, model.node_count).expect("nodes publisher");
+    topo_pub.publish(&topology).expect("topology published");
+    for k in 0..frames {
+        if stop.load(Ordering::SeqCst) {
+            break;
+        }
+        let frame = limb.frame(k, k as f64 / 200.0);
+        let _ = topo_pub.serve_late_joiners();
+        nodes_pub
+            .publish_from_fn(k, k, k as f64 / 200.0, model.node_count, |i| frame.positions[i].to_array())
+            .expect("frame published");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn live_source_follows_core_and_restart_works() {
+    let prefix = format!("lamina_viewer_test_{}", std::process::id());
+    let reference = SyntheticLimb::default().view_model();
+    // The viewer first: no core yet.
+    let mut source = LiveSource::open(&prefix, Some(reference.clone())).expect("live source opens");
+    assert!(matches!(source.next_event(Duration::from_millis(50)), SourceEvent::Idle(_)));
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut models = 0;
+    let mut frames = 0;
+    let mut latencies = Vec::new();
+    for run in 0..2 {
+        let (p, s) = (prefix.clone(), stop.clone());
+        let core = std::thread::spawn(move || run_core(p, 200, s));
+        // Watchdog: give up after 20 s rather than hang (no timing is asserted).
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut frames_this_run = 0;
+        while frames_this_run < 20 && Instant::now() < deadline {
+            match source.next_event(Duration::from_millis(200)) {
+                SourceEvent::Model(m) => {
+                    assert_eq!(m, reference, "the matching reference model is used");
+                    models += 1;
+                }
+                SourceEvent::Frame(f) => {
+                    assert_eq!(f.positions.len(), reference.node_count);
+                    assert!(f.publish_time_ns > 0);
+                    latencies.push(lamina_bridge::now_ns().saturating_sub(f.publish_time_ns));
+                    frames += 1;
+                    frames_this_run += 1;
+                }
+                SourceEvent::Idle(_) => {}
+            }
+        }
+        stop.store(true, Ordering::SeqCst);
+        core.join().expect("core thread");
+        stop.store(false, Ordering::SeqCst);
+        assert!(frames_this_run >= 20, "run {run}: only {frames_this_run} frames before the watchdog");
+    }
+    assert!(models >= 2, "the restarted core's topology was taken ({models} models)");
+    assert!(frames >= 40);
+    latencies.sort_unstable();
+    eprintln!(
+        "in-process latency publish -> received: p50 {:.3} ms, max {:.3} ms over {} frames",
+        latencies[latencies.len() / 2] as f64 / 1e6,
+        latencies[latencies.len() - 1] as f64 / 1e6,
+        latencies.len()
+    );
+}
