@@ -65,6 +65,18 @@ enum Command {
         #[arg(long)]
         vtu: Option<PathBuf>,
     },
+    /// The main job as processes: the core and the viewer (headless without a display).
+    Demo {
+        /// Scene; the built-in default when omitted.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// How long to run, s.
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f64,
+        /// Output folder (frames, reports, logs).
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+    },
     /// Cross-process profile: core-to-subscriber latency (poll and block), jitter, misses.
     Profile {
         /// Scene for the core run; the built-in default when omitted.
@@ -176,6 +188,7 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Demo { scene, seconds, out } => cli::demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {
             let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
             cli::profile::profile(scene.as_deref(), seconds, &sizes, &out)

@@ -2,6 +2,7 @@
 
 pub mod bench_effects;
 pub mod bench_yardstick;
+pub mod demo;
 pub mod generate;
 pub mod machine;
 pub mod plot_font;
