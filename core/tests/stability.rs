@@ -71,6 +71,13 @@ fn coincident_nodes_stay_stable_works() {
 }
 
 #[test]
+fn tool_through_skin_stays_stable_works() {
+    for row in check("tool_through_skin") {
+        assert!(row.max_displacement_m > 0.002, "the tool really pushed the tissue aside: {row:?}");
+    }
+}
+
+#[test]
 fn sudden_large_load_stays_stable_works() {
     check("sudden_large_load");
 }

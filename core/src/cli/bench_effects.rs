@@ -7,7 +7,7 @@ use super::machine;
 use lamina_core::model::Model;
 use lamina_core::scene::Scene;
 use lamina_core::solver::{
-    BoneMotion, DragHandle, Effects, GuardSettings, IntegrationParameters, PointLoad, Simulation, Substeps,
+    BoneMotion, DragHandle, Effects, GuardSettings, IntegrationParameters, PointLoad, Simulation, SphereTool, Substeps,
 };
 use std::time::{Duration, Instant};
 
@@ -60,6 +60,21 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
             DragHandle { node, target: [p[0], p[1] + 0.005, p[2]], stiffness: 1.0, damping: 0.01 }
         })
         .collect();
+    // A 1 cm sphere pressed 3 mm into the top face above the centre node.
+    let top = model
+        .nodes
+        .position
+        .iter()
+        .copied()
+        .max_by(|a, b| a[1].total_cmp(&b[1]).then(b[0].total_cmp(&a[0])))
+        .unwrap_or([0.0; 3]);
+    let centre = model.nodes.position[(n / 2) as usize];
+    let tool = SphereTool {
+        radius: 0.01,
+        stiffness: 200.0,
+        start: [centre[0], top[1] + 0.007, centre[2]],
+        velocity: [0.0; 3],
+    };
     let springs_only = Effects::default();
     let singles: Vec<(&str, Effects)> = vec![
         ("spring dashpots", Effects { spring_damping: true, ..Effects::default() }),
@@ -75,6 +90,7 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
         ),
         ("16 point loads", Effects { loads: loads.clone(), ..Effects::default() }),
         ("16 drag handles", Effects { handles: handles.clone(), ..Effects::default() }),
+        ("sphere tool", Effects { tool: Some(tool), ..Effects::default() }),
         ("guard", Effects { guard: Some(GuardSettings::default()), ..Effects::default() }),
     ];
     let all_on = Effects {
@@ -86,6 +102,7 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
         loads,
         handles,
         guard: Some(GuardSettings::default()),
+        tool: Some(tool),
     };
     println!(
         "effects benchmark: scene '{}', {} nodes, {} springs, f32, 1 sub-step per step, {} thread(s), SIMD {}",

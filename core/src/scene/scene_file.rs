@@ -461,6 +461,7 @@ impl Scene {
             loads,
             handles,
             guard,
+            tool: None,
         };
         let r = raw.realtime;
         let overrun = match r.overrun.as_deref().unwrap_or("skip") {

@@ -66,6 +66,10 @@ pub struct Dynamics<T> {
     pub(crate) kinematic: Vec<u32>,
     pub(crate) external: Vec3s<T>,
     pub(crate) effects: Effects,
+    /// Nodes the tool pushed at the last evaluation (capacity: every node, so no allocation).
+    pub(crate) tool_touched: Vec<u32>,
+    /// What the tool felt at the last evaluation.
+    pub(crate) tool_feedback: super::effects::ToolFeedback,
     /// Per-stage timers.
     pub counters: StageCounters,
 }
@@ -96,6 +100,8 @@ impl<T: Real> Dynamics<T> {
             kinematic,
             external: Vec3s::zeros(n),
             effects,
+            tool_touched: Vec::with_capacity(n),
+            tool_feedback: Default::default(),
             counters: StageCounters::default(),
         }
     }
@@ -107,13 +113,17 @@ impl<T: Real> Dynamics<T> {
 
     /// Whether loads or handles are on.
     fn has_external(&self) -> bool {
-        !self.effects.loads.is_empty() || !self.effects.handles.is_empty()
+        !self.effects.loads.is_empty() || !self.effects.handles.is_empty() || self.effects.tool.is_some()
     }
 
     /// Writes loads and handle forces at state `(x, v)` and time `t` into the external array.
     fn eval_external(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64) {
         let start = Instant::now();
         let ext = &mut self.external;
+        for &i in &self.tool_touched {
+            ext.set(i as usize, [T::ZERO; 3]);
+        }
+        self.tool_touched.clear();
         for l in &self.effects.loads {
             ext.set(l.node as usize, [T::ZERO; 3]);
         }
@@ -130,6 +140,36 @@ impl<T: Real> Dynamics<T> {
             let i = h.node as usize;
             let (p, q, old) = (x.get_f64(i), v.get_f64(i), ext.get(i));
             ext.set(i, [0, 1, 2].map(|c| old[c] + T::from_f64(h.stiffness * (h.target[c] - p[c]) - h.damping * q[c])));
+        }
+        if let Some(tool) = self.effects.tool {
+            let c = tool.centre(t);
+            let mut fb = super::effects::ToolFeedback { centre: c, ..Default::default() };
+            let r2 = tool.radius * tool.radius;
+            for i in 0..x.len() {
+                if self.free[i] == T::ZERO {
+                    continue;
+                }
+                let d = [x.x[i].to_f64() - c[0], x.y[i].to_f64() - c[1], x.z[i].to_f64() - c[2]];
+                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if d2 >= r2 || !d2.is_finite() {
+                    continue;
+                }
+                let dist = d2.sqrt().max(1e-9);
+                let n = [d[0] / dist, d[1] / dist, d[2] / dist];
+                let push = tool.stiffness * (tool.radius - dist);
+                let old = ext.get(i);
+                ext.set(i, [0, 1, 2].map(|k| old[k] + T::from_f64(push * n[k])));
+                self.tool_touched.push(i as u32);
+                fb.nodes += 1;
+                for a in 0..3 {
+                    fb.force[a] -= push * n[a];
+                    for b in 0..3 {
+                        fb.stiffness[a][b] -= tool.stiffness * n[a] * n[b];
+                    }
+                }
+            }
+            fb.in_contact = fb.nodes > 0;
+            self.tool_feedback = fb;
         }
         self.counters.external += start.elapsed();
     }

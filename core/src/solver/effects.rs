@@ -34,6 +34,44 @@ pub struct DragHandle {
     pub damping: f64,
 }
 
+/// A rigid sphere (a haptic tool's tip) pushing nodes out by penalty springs: a node at
+/// distance `d < radius` from the centre feels `stiffness · (radius − d)` along the outward
+/// direction. The centre moves as `start + velocity · t` unless a caller sets it each frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereTool {
+    /// Radius, m.
+    pub radius: f64,
+    /// Penalty stiffness per node, N/m.
+    pub stiffness: f64,
+    /// Centre at t = 0, m.
+    pub start: [f64; 3],
+    /// Centre velocity, m/s.
+    pub velocity: [f64; 3],
+}
+
+impl SphereTool {
+    /// Centre at time `t`, m.
+    pub fn centre(&self, t: f64) -> [f64; 3] {
+        [0, 1, 2].map(|c| self.start[c] + self.velocity[c] * t)
+    }
+}
+
+/// What the tool feels: the contact's resultant and its local stiffness, for haptic rendering
+/// (`F(x) ≈ force + stiffness · (x − centre)`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ToolFeedback {
+    /// Whether any node touches the tool.
+    pub in_contact: bool,
+    /// Nodes in contact.
+    pub nodes: u32,
+    /// Force on the tool, N (the reaction of the tissue).
+    pub force: [f64; 3],
+    /// Local stiffness of that force with respect to the tool's position, N/m (symmetric).
+    pub stiffness: [[f64; 3]; 3],
+    /// Tool centre the feedback was computed at, m.
+    pub centre: [f64; 3],
+}
+
 /// When the guard declares a state bad.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GuardSettings {
@@ -71,6 +109,8 @@ pub struct Effects {
     pub handles: Vec<DragHandle>,
     /// Detect non-finite or exploding state and roll back.
     pub guard: Option<GuardSettings>,
+    /// A spherical tool in contact with the tissue.
+    pub tool: Option<SphereTool>,
 }
 
 impl Effects {
@@ -86,6 +126,7 @@ impl Effects {
             loads: Vec::new(),
             handles: Vec::new(),
             guard: Some(GuardSettings::default()),
+            tool: None,
         }
     }
 
@@ -97,6 +138,9 @@ impl Effects {
         }
         if !self.handles.is_empty() {
             names.push("handles");
+        }
+        if self.tool.is_some() {
+            names.push("tool");
         }
         names.push(if self.spring_damping { "springs+dashpots" } else { "springs" });
         if self.gravity.is_some() {

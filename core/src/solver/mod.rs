@@ -22,7 +22,7 @@ mod worker_pool;
 
 pub use critical_step::StabilityEstimate;
 pub use dynamics::{StageCounters, State};
-pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad};
+pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};
 pub use guard::{GuardEvent, GuardReason, Recovery};
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;

@@ -133,6 +133,16 @@ fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuild
     if effects.bone_motion.is_some_and(|m| !(finite(&m.amplitude) && m.frequency_hz.is_finite())) {
         return Err(SimulationBuildError::BadEffectValue { effect: "bone_motion" });
     }
+    if effects.tool.is_some_and(|t| {
+        !(t.radius > 0.0
+            && t.radius.is_finite()
+            && t.stiffness >= 0.0
+            && t.stiffness.is_finite()
+            && finite(&t.start)
+            && finite(&t.velocity))
+    }) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "tool" });
+    }
     if effects.guard.is_some_and(|g| !(g.max_speed > 0.0 && g.max_displacement > 0.0)) {
         return Err(SimulationBuildError::BadEffectValue { effect: "guard" });
     }
@@ -153,7 +163,11 @@ impl<T: Real> Simulation<T> {
             effects.viscous_damping.unwrap_or(0.0),
             effects.bone,
         );
-        // A drag handle is a spring to a fixed point: it stiffens its node's modes.
+        // A drag handle or the tool is a spring to a fixed point: it stiffens its node's modes.
+        if let Some(tool) = effects.tool {
+            let m = model.nodes.mass.iter().copied().fold(f64::INFINITY, f64::min);
+            stability.omega_max = (stability.omega_max.powi(2) + tool.stiffness / m).sqrt();
+        }
         for h in &effects.handles {
             let m = model.nodes.mass[h.node as usize];
             stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
@@ -239,6 +253,11 @@ impl<T: Real> Simulation<T> {
     /// Rollbacks of the last frame.
     pub fn quarantine(&self) -> &[GuardEvent] {
         &self.quarantine
+    }
+
+    /// What the tool felt at the last force evaluation (zero when no tool is on).
+    pub fn tool_feedback(&self) -> crate::solver::ToolFeedback {
+        self.dynamics.tool_feedback
     }
 
     /// Guard totals since the start.

@@ -122,6 +122,8 @@ fn ledger_energy<T: Real>(model: &Model, sim: &Simulation<T>) -> f64 {
 #[derive(Clone, Debug)]
 pub struct EnergyLedger {
     last_x: Vec<[f64; 3]>,
+    /// Every node's last position, kept when a tool is on (its work is Σ f·Δx over nodes).
+    last_all: Vec<[f64; 3]>,
     /// Work done by point loads so far, J.
     pub work_in: f64,
     /// Mechanical energy at the start, J.
@@ -137,7 +139,12 @@ impl EnergyLedger {
     pub fn new<T: Real>(model: &Model, sim: &Simulation<T>) -> Self {
         let e = ledger_energy(model, sim);
         let last_x = sim.effects().loads.iter().map(|l| sim.state().x.get_f64(l.node as usize)).collect();
-        Self { last_x, work_in: 0.0, initial: e, max_excess: 0.0, scale: e.abs() }
+        let last_all = if sim.effects().tool.is_some() {
+            (0..model.nodes.len()).map(|i| sim.state().x.get_f64(i)).collect()
+        } else {
+            Vec::new()
+        };
+        Self { last_x, last_all, work_in: 0.0, initial: e, max_excess: 0.0, scale: e.abs() }
     }
 
     /// Records the state after a step. Load work is integrated with the force at the end
@@ -151,6 +158,21 @@ impl EnergyLedger {
                 self.work_in += ramp * l.force[c] * (x[c] - self.last_x[k][c]);
             }
             self.last_x[k] = x;
+        }
+        if let Some(tool) = sim.effects().tool {
+            let c = tool.centre(s.time);
+            for i in 0..self.last_all.len() {
+                let x = s.x.get_f64(i);
+                let d = [x[0] - c[0], x[1] - c[1], x[2] - c[2]];
+                let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                if dist < tool.radius && dist > 0.0 && !(sim.effects().bone && model.nodes.kind[i] != NodeKind::Free) {
+                    let push = tool.stiffness * (tool.radius - dist) / dist;
+                    for k in 0..3 {
+                        self.work_in += push * d[k] * (x[k] - self.last_all[i][k]);
+                    }
+                }
+                self.last_all[i] = x;
+            }
         }
         let e = ledger_energy(model, sim);
         self.scale = self.scale.max(e.abs()).max(self.work_in.abs());

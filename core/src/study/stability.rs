@@ -8,7 +8,8 @@ use crate::law::{Bilinear, SpringLaw};
 use crate::model::Model;
 use crate::scene::{BlockSpec, LayerMaterial, layered_block};
 use crate::solver::{
-    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, PointLoad, Simulation, Substeps,
+    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, PointLoad, Simulation, SphereTool,
+    Substeps,
 };
 use serde::Serialize;
 use std::time::Instant;
@@ -172,6 +173,23 @@ pub fn stability_cases() -> Vec<StabilityCase> {
                     SpringLaw::Bilinear(Bilinear { k1: 400.0, k2: 4000.0, turn_length: 0.013, k_compression: 400.0 });
                 m.springs.push(top as u32, (top + 20) as u32, 0.01, law, 0.02, 3);
                 (m, params(k), base_effects())
+            },
+            frames: 300,
+        },
+        StabilityCase {
+            name: "tool_through_skin",
+            description: "a 5 mm sphere tool driven down at 0.1 m/s through the skin into the fat (3 cm travel)",
+            build: |k| {
+                let m = small_block(BlockSpec::default().skin);
+                let p = m.nodes.position[top_centre(&m) as usize];
+                let mut e = base_effects();
+                e.tool = Some(SphereTool {
+                    radius: 0.005,
+                    stiffness: 300.0,
+                    start: [p[0] + 0.002, p[1] + 0.006, p[2] + 0.002],
+                    velocity: [0.0, -0.1, 0.0],
+                });
+                (m, params(k), e)
             },
             frames: 300,
         },
