@@ -1,0 +1,287 @@
+//! Error types of the crate: flat enums named `<Thing><Op>Error`.
+//!
+//! Every variant that comes from a file names the file; syntax errors name the 1-based line;
+//! topology errors give counts and the coordinates of the first offending edge (the edge of
+//! the lowest-numbered triangle, in file order), in the file's own units.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::units::Units;
+
+/// Why a mesh file could not be loaded (see [`crate::load`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshLoadError {
+    /// The file could not be opened or read.
+    Io {
+        /// File.
+        path: PathBuf,
+        /// OS error text.
+        message: String,
+    },
+    /// The file name does not end in `.stl` or `.obj` (case-insensitive).
+    UnsupportedFormat {
+        /// File.
+        path: PathBuf,
+    },
+    /// A binary STL is shorter than its header's triangle count requires, or shorter than the
+    /// 84-byte header itself.
+    StlTruncated {
+        /// File.
+        path: PathBuf,
+        /// Triangle count declared at byte 80 (0 when the header itself is cut).
+        declared_triangles: u64,
+        /// Complete triangles present.
+        complete_triangles: u64,
+        /// Bytes needed: 84 + 50 × declared triangles.
+        expected_bytes: u64,
+        /// Bytes in the file.
+        actual_bytes: u64,
+    },
+    /// A binary STL vertex has a NaN or infinite coordinate.
+    StlNonFinite {
+        /// File.
+        path: PathBuf,
+        /// 0-based triangle index.
+        triangle: u64,
+    },
+    /// An ASCII STL is malformed: unexpected keyword, bad number, missing `endloop`, ...
+    StlSyntax {
+        /// File.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An OBJ line is malformed: bad or non-finite number, too few coordinates, a face with
+    /// fewer than three corners, index 0.
+    ObjSyntax {
+        /// File.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An OBJ face refers to a vertex that does not exist.
+    ObjIndexOutOfRange {
+        /// File.
+        path: PathBuf,
+        /// 1-based line of the face.
+        line: usize,
+        /// The index as written (1-based, or negative = relative).
+        index: i64,
+        /// Vertices available to that face.
+        vertex_count: usize,
+    },
+    /// More vertices or triangles than 32-bit indices can address.
+    TooLarge {
+        /// File.
+        path: PathBuf,
+    },
+    /// No triangle is left (the file has none, or all are degenerate).
+    Empty {
+        /// File.
+        path: PathBuf,
+        /// Degenerate triangles that were removed.
+        degenerate_removed: usize,
+    },
+    /// The surface has holes: edges used by only one triangle. Allowed with
+    /// [`crate::LoadOptions::allow_open`].
+    OpenSurface {
+        /// File.
+        path: PathBuf,
+        /// Edges used by exactly one triangle.
+        boundary_edges: usize,
+        /// Holes: connected loops of boundary edges.
+        holes: usize,
+        /// Endpoints of the first boundary edge, in `units`.
+        first_edge: [[f64; 3]; 2],
+        /// Units of `first_edge` (the file's).
+        units: Units,
+    },
+    /// Some edges are shared by more than two triangles. Allowed with
+    /// [`crate::LoadOptions::allow_non_manifold`].
+    NonManifold {
+        /// File.
+        path: PathBuf,
+        /// Edges used by three or more triangles.
+        non_manifold_edges: usize,
+        /// Triangles on the first such edge.
+        triangles_on_first_edge: usize,
+        /// Endpoints of the first such edge, in `units`.
+        first_edge: [[f64; 3]; 2],
+        /// Units of `first_edge` (the file's).
+        units: Units,
+    },
+    /// The triangles cannot be given one consistent winding (a Möbius-like surface).
+    NonOrientable {
+        /// File.
+        path: PathBuf,
+        /// Endpoints of the edge where the flood fill met a contradiction, in `units`.
+        first_edge: [[f64; 3]; 2],
+        /// Units of `first_edge` (the file's).
+        units: Units,
+    },
+}
+
+fn p(v: [f64; 3]) -> String {
+    format!("({}, {}, {})", v[0], v[1], v[2])
+}
+
+impl fmt::Display for MeshLoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::UnsupportedFormat { path } => {
+                write!(f, "{}: unsupported mesh format (expected a .stl or .obj file)", path.display())
+            }
+            Self::StlTruncated { path, declared_triangles, complete_triangles, expected_bytes, actual_bytes } => {
+                write!(
+                    f,
+                    "{}: truncated binary STL: header declares {declared_triangles} triangles \
+                     ({expected_bytes} bytes) but the file has {actual_bytes} bytes \
+                     ({complete_triangles} complete triangles; triangle {complete_triangles} is cut)",
+                    path.display()
+                )
+            }
+            Self::StlNonFinite { path, triangle } => {
+                write!(f, "{}: binary STL triangle {triangle} has a NaN or infinite coordinate", path.display())
+            }
+            Self::StlSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
+            Self::ObjSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
+            Self::ObjIndexOutOfRange { path, line, index, vertex_count } => write!(
+                f,
+                "{}:{line}: face vertex index {index} is out of range ({vertex_count} vertices)",
+                path.display()
+            ),
+            Self::TooLarge { path } => {
+                write!(f, "{}: too many vertices or triangles for 32-bit indices", path.display())
+            }
+            Self::Empty { path, degenerate_removed } => {
+                write!(f, "{}: no triangles left ({degenerate_removed} degenerate triangles removed)", path.display())
+            }
+            Self::OpenSurface { path, boundary_edges, holes, first_edge, units } => write!(
+                f,
+                "{}: surface is not closed: {holes} hole(s), {boundary_edges} boundary edge(s) used by \
+                 only one triangle; first from {} to {} {}",
+                path.display(),
+                p(first_edge[0]),
+                p(first_edge[1]),
+                units.symbol()
+            ),
+            Self::NonManifold { path, non_manifold_edges, triangles_on_first_edge, first_edge, units } => write!(
+                f,
+                "{}: surface is not manifold: {non_manifold_edges} edge(s) shared by more than two \
+                 triangles; first ({triangles_on_first_edge} triangles) from {} to {} {}",
+                path.display(),
+                p(first_edge[0]),
+                p(first_edge[1]),
+                units.symbol()
+            ),
+            Self::NonOrientable { path, first_edge, units } => write!(
+                f,
+                "{}: surface is not orientable: no consistent winding exists; contradiction at the \
+                 edge from {} to {} {}",
+                path.display(),
+                p(first_edge[0]),
+                p(first_edge[1]),
+                units.symbol()
+            ),
+        }
+    }
+}
+
+impl std::error::Error for MeshLoadError {}
+
+/// Why a mesh file could not be written.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSaveError {
+    /// The file could not be created or written.
+    Io {
+        /// File.
+        path: PathBuf,
+        /// OS error text.
+        message: String,
+    },
+}
+
+impl fmt::Display for MeshSaveError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for MeshSaveError {}
+
+/// Why a [`crate::TriMesh`] could not be built from vertex and index arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TriMeshBuildError {
+    /// A triangle refers to a vertex that does not exist.
+    IndexOutOfRange {
+        /// 0-based triangle.
+        triangle: usize,
+        /// The offending index.
+        index: u32,
+        /// Number of vertices.
+        vertex_count: usize,
+    },
+    /// A vertex has a NaN or infinite coordinate.
+    NonFiniteVertex {
+        /// 0-based vertex.
+        vertex: usize,
+    },
+    /// More vertices than 32-bit indices can address.
+    TooManyVertices {
+        /// Number of vertices given.
+        vertex_count: usize,
+    },
+}
+
+impl fmt::Display for TriMeshBuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::IndexOutOfRange { triangle, index, vertex_count } => {
+                write!(f, "triangle {triangle} refers to vertex {index} but there are {vertex_count} vertices")
+            }
+            Self::NonFiniteVertex { vertex } => write!(f, "vertex {vertex} has a NaN or infinite coordinate"),
+            Self::TooManyVertices { vertex_count } => {
+                write!(f, "{vertex_count} vertices cannot be addressed with 32-bit indices")
+            }
+        }
+    }
+}
+
+impl std::error::Error for TriMeshBuildError {}
+
+/// Why a centreline could not be computed (see [`crate::centreline`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CentrelineComputeError {
+    /// The mesh has no triangles.
+    EmptyMesh,
+    /// The given axis is zero or not finite.
+    InvalidAxis,
+    /// The given height range has a NaN or infinite end.
+    InvalidRange,
+    /// Zero stations were asked for.
+    NoStations,
+    /// No station plane cuts the surface in a closed loop.
+    NoCrossSection,
+}
+
+impl fmt::Display for CentrelineComputeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::EmptyMesh => f.write_str("the mesh has no triangles"),
+            Self::InvalidAxis => f.write_str("the centreline axis is zero or not finite"),
+            Self::InvalidRange => f.write_str("the centreline height range is not finite"),
+            Self::NoStations => f.write_str("at least one centreline station is needed"),
+            Self::NoCrossSection => f.write_str("no station plane cuts the surface in a closed loop"),
+        }
+    }
+}
+
+impl std::error::Error for CentrelineComputeError {}

@@ -1,0 +1,77 @@
+//! The real BodyParts3D right-leg surfaces (see `shared/data/bodyparts3d-leg/README.md`).
+//! Skipped, with a message, when the data directory is not there.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use lamina_mesh::{CentrelineOptions, LoadOptions, Units, centreline, inspect, load};
+
+fn data_dir() -> Option<PathBuf> {
+    let workspace = PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent()?.to_path_buf();
+    let dir = workspace.join("../shared/data/bodyparts3d-leg");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: {} not found", dir.display());
+        None
+    }
+}
+
+#[test]
+fn leg_fat_muscle_boundary_load_works() {
+    let Some(dir) = data_dir() else { return };
+    let path = dir.join("fat_muscle_boundary.stl");
+    let t0 = Instant::now();
+    let loaded = load(&path, &LoadOptions::default()).unwrap();
+    println!("load {}: {:.1} ms", path.display(), t0.elapsed().as_secs_f64() * 1e3);
+    let r = loaded.report;
+    println!("{r:?}");
+    assert_eq!(r.units, Units::Millimetre);
+    assert!(r.units_inferred);
+    assert_eq!(r.raw_triangles, 129_236);
+    assert_eq!(r.raw_vertices, 3 * 129_236);
+    // The README's count: the triangles wound inward on a closed surface.
+    assert_eq!(r.flipped_fixed, 6_794);
+    assert!(loaded.mesh.signed_volume() > 0.0);
+}
+
+#[test]
+fn leg_inspect_all_files_works() {
+    let Some(dir) = data_dir() else { return };
+    for name in [
+        "fat_muscle_boundary.stl",
+        "skin_outer.stl",
+        "bone_femur.stl",
+        "bone_tibia.stl",
+        "bone_fibula.stl",
+        "bone_patella.stl",
+    ] {
+        let t0 = Instant::now();
+        let ins = inspect(dir.join(name)).unwrap();
+        println!("inspect in {:.1} ms\n{ins}", t0.elapsed().as_secs_f64() * 1e3);
+    }
+}
+
+#[test]
+fn leg_skin_centreline_thigh_works() {
+    let Some(dir) = data_dir() else { return };
+    let skin = load(dir.join("skin_outer.stl"), &LoadOptions::default()).unwrap().mesh;
+    let opts = CentrelineOptions { stations: 34, range: Some((0.450, 0.780)), ..Default::default() };
+    let line = centreline(&skin, &opts).unwrap();
+    assert_eq!(line.axis, [0.0, 0.0, 1.0]);
+    for s in &line.sections {
+        println!(
+            "z {:.3} m  centroid ({:.4}, {:.4})  area {:.5} m²  mean r {:.1} mm  equiv r {:.1} mm  loops {}",
+            s.height,
+            s.centroid[0],
+            s.centroid[1],
+            s.area,
+            s.mean_radius * 1e3,
+            s.equivalent_radius * 1e3,
+            s.loops
+        );
+    }
+    let s = line.nearest(0.650).unwrap();
+    assert!((s.height - 0.650).abs() < 1e-9);
+    assert!((s.mean_radius - 0.082).abs() < 0.004, "mean radius {} m", s.mean_radius);
+}
