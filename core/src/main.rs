@@ -65,6 +65,11 @@ enum Command {
         #[arg(long)]
         vtu: Option<PathBuf>,
     },
+    /// Inspect a surface mesh (STL or OBJ): counts, closedness, defects, volume, area, bounds.
+    Inspect {
+        /// The mesh file.
+        file: PathBuf,
+    },
     /// The main job as processes: the core and the viewer (headless without a display).
     Demo {
         /// Scene; the built-in default when omitted.
@@ -188,6 +193,11 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Inspect { file } => {
+            let report = lamina_mesh::inspect(&file).map_err(|e| e.to_string())?;
+            println!("{report}");
+            Ok(())
+        }
         Command::Demo { scene, seconds, out } => cli::demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {
             let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
