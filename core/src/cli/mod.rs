@@ -5,7 +5,7 @@ pub mod bench_yardstick;
 pub mod demo;
 pub mod generate;
 pub mod machine;
-pub mod plot_font;
+pub mod plot;
 pub mod profile;
 pub mod publish;
 pub mod run;

@@ -5,7 +5,7 @@
 //! percentile plot (PNG).
 
 use super::machine;
-use plotters::prelude::*;
+use super::plot::{Series, log_log_lines};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
@@ -185,11 +185,11 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
 }
 
 fn plot(path: &Path, rows: &[Row]) -> Result<(), String> {
-    let series: Vec<(String, Vec<(f64, f64)>)> = rows
+    let series: Vec<Series> = rows
         .iter()
         .filter_map(|r| {
             let text = std::fs::read_to_string(&r.histogram).ok()?;
-            let pts: Vec<(f64, f64)> = text
+            let points: Vec<(f64, f64)> = text
                 .lines()
                 .skip(1)
                 .filter_map(|l| {
@@ -197,46 +197,15 @@ fn plot(path: &Path, rows: &[Row]) -> Result<(), String> {
                     (f.len() == 3 && f[1] < 1.0).then(|| (1.0 / (1.0 - f[1]), f[0].max(1.0) / 1e3))
                 })
                 .collect();
-            (!pts.is_empty()).then(|| (format!("{} {} nodes {}", r.source, r.nodes, r.mode), pts))
+            Some(Series { name: format!("{} {} nodes {}", r.source, r.nodes, r.mode), points })
         })
         .collect();
-    if series.is_empty() {
-        return Ok(());
-    }
-    let ymax = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(1.0f64, f64::max);
-    let xmax = series.iter().flat_map(|s| s.1.iter().map(|p| p.0)).fold(10.0f64, f64::max);
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let font = super::plot_font::font_available();
-    let mut builder = ChartBuilder::on(&root);
-    builder.margin(20).x_label_area_size(if font { 50 } else { 10 }).y_label_area_size(if font { 70 } else { 10 });
-    if font {
-        builder.caption("one-way latency percentiles (x: 1/(1-q), 10 = p90, 1000 = p99.9)", ("sans-serif", 18));
-    }
-    let mut chart = builder
-        .build_cartesian_2d((1.0..xmax * 1.5).log_scale(), (0.1..ymax * 2.0).log_scale())
-        .map_err(|e| e.to_string())?;
-    let mut mesh = chart.configure_mesh();
-    if font {
-        mesh.x_desc("1 / (1 - quantile)").y_desc("latency (us)");
-    } else {
-        mesh.disable_x_axis().disable_y_axis();
-    }
-    mesh.draw().map_err(|e| e.to_string())?;
-    for (k, (name, pts)) in series.iter().enumerate() {
-        let c = Palette99::pick(k).to_rgba();
-        let s = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2))).map_err(|e| e.to_string())?;
-        if font {
-            s.label(name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
-        }
-    }
-    if font {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())?;
-    }
-    root.present().map_err(|e| e.to_string())
+    log_log_lines(
+        path,
+        "one-way latency percentiles (x: 1/(1-q), 10 = p90, 1000 = p99.9)",
+        "1 / (1 - quantile)",
+        "latency (us)",
+        &series,
+        false,
+    )
 }

@@ -1,10 +1,10 @@
 //! `lamina study accuracy` and `lamina study stability`.
 
 use super::machine;
+use super::plot::{Series, log_log_lines};
 use lamina_core::scene::Scene;
 use lamina_core::solver::IntegratorKind;
 use lamina_core::study::{AccuracyCase, AccuracyRow, accuracy_study, run_case, stability_cases};
-use plotters::prelude::*;
 use std::path::Path;
 
 /// Wall time per simulated second that a 1 kHz core may spend on physics: half of real
@@ -52,55 +52,18 @@ fn write_csv(path: &Path, rows: &[AccuracyRow]) -> Result<(), String> {
 }
 
 fn plot(path: &Path, title: &str, rows: &[AccuracyRow]) -> Result<(), String> {
-    let finite: Vec<&AccuracyRow> = rows.iter().filter(|r| r.error_m.is_finite() && r.error_m > 0.0).collect();
-    if finite.is_empty() {
-        return Ok(());
-    }
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for r in &finite {
-        x0 = x0.min(r.cost_s_per_s);
-        x1 = x1.max(r.cost_s_per_s);
-        y0 = y0.min(r.error_m);
-        y1 = y1.max(r.error_m);
-    }
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let font = super::plot_font::font_available();
-    let mut builder = ChartBuilder::on(&root);
-    builder.margin(20).x_label_area_size(if font { 50 } else { 10 }).y_label_area_size(if font { 80 } else { 10 });
-    if font {
-        builder.caption(title, ("sans-serif", 22));
-    }
-    let mut chart = builder
-        .build_cartesian_2d((x0 / 2.0..x1 * 2.0).log_scale(), (y0 / 3.0..y1 * 3.0).log_scale())
-        .map_err(|e| e.to_string())?;
-    let mut mesh = chart.configure_mesh();
-    if font {
-        mesh.x_desc("wall time per simulated second (s/s)").y_desc("max position error (m)");
-    } else {
-        mesh.disable_x_axis().disable_y_axis();
-    }
-    mesh.draw().map_err(|e| e.to_string())?;
-    let colours = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44)];
-    for (k, integrator) in IntegratorKind::ALL.iter().enumerate() {
-        let pts: Vec<(f64, f64)> =
-            finite.iter().filter(|r| r.integrator == integrator.name()).map(|r| (r.cost_s_per_s, r.error_m)).collect();
-        let c = colours[k];
-        let series = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2))).map_err(|e| e.to_string())?;
-        if font {
-            series.label(integrator.name()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
-        }
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(|e| e.to_string())?;
-    }
-    if font {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())?;
-    }
-    root.present().map_err(|e| e.to_string())
+    let series: Vec<Series> = IntegratorKind::ALL
+        .iter()
+        .map(|k| Series {
+            name: k.name().to_string(),
+            points: rows
+                .iter()
+                .filter(|r| r.integrator == k.name() && r.error_m.is_finite())
+                .map(|r| (r.cost_s_per_s, r.error_m))
+                .collect(),
+        })
+        .collect();
+    log_log_lines(path, title, "wall time per simulated second (s/s)", "max position error (m)", &series, true)
 }
 
 /// `lamina study accuracy`.
