@@ -180,7 +180,9 @@ impl Waker {
 /// Publishes node frames on `<prefix>/nodes`, writing positions straight into shared memory.
 ///
 /// The maximum node count is fixed at creation (static allocation: shared memory is sized
-/// once, about `max_nodes * 12 B * 51` chunks for the default QoS, 61 MB for 100,000 nodes).
+/// once: chunks of `max_nodes * 12 B`, and with the default QoS
+/// `MAX_SUBSCRIBERS * (NODES_BUFFER_SIZE + MAX_BORROWED_SAMPLES) + 2` = 146 of them, so
+/// 175 MB of `/dev/shm` for 100,000 nodes, measured).
 /// Not `Send`: create it on the thread that publishes.
 #[derive(Debug)]
 pub struct NodesPublisher {

@@ -15,7 +15,7 @@ pub struct CorePublisher {
     // Field order is drop order: ports before the node that owns them.
     nodes: NodesPublisher,
     stats: StatsPublisher,
-    _topology: TopologyPublisher,
+    topology: TopologyPublisher,
     _bridge: Bridge,
     stats_sequence: u64,
     /// Frames published.
@@ -55,7 +55,7 @@ impl CorePublisher {
         topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;
         let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| format!("nodes service: {e}"))?;
         let stats = StatsPublisher::create(&bridge).map_err(|e| format!("stats service: {e}"))?;
-        Ok(Self { nodes, stats, _topology: topo_pub, _bridge: bridge, stats_sequence: 0, sequence: 0, failures: 0 })
+        Ok(Self { nodes, stats, topology: topo_pub, _bridge: bridge, stats_sequence: 0, sequence: 0, failures: 0 })
     }
 
     /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.
@@ -71,8 +71,12 @@ impl CorePublisher {
         }
     }
 
-    /// Publishes the monitor's summary.
+    /// Publishes the monitor's summary, and hands the topology to subscribers that joined
+    /// since the last call (once a second, between ticks).
     pub fn publish_stats(&mut self, s: &MonitorSummary) {
+        if self.topology.serve_late_joiners().is_err() {
+            self.failures += 1;
+        }
         let p = |q: &lamina_rt::Percentiles| lamina_bridge::Percentiles {
             p50_ns: q.p50_ns,
             p99_ns: q.p99_ns,
