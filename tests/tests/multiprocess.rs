@@ -108,13 +108,20 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
     for w in rows.windows(2) {
         assert_eq!(w[1].tick, w[0].tick + 1, "tick records are consecutive");
     }
+    // A send held up by a subscriber lasts seconds (iceoryx2's RetryUntilDelivered stall was
+    // 3.5 s on this kind of machine); the hypervisor can preempt the core for up to ~10 ms
+    // inside any tick, send included. So: no send near a stall, and sends are short normally.
     let worst = rows.iter().max_by_key(|r| r.send_ns).unwrap();
     assert!(
-        worst.send_ns < 5_000_000,
+        worst.send_ns < 100_000_000,
         "tick {} spent {} ns in send: a subscriber held the core up",
         worst.tick,
         worst.send_ns
     );
+    let mut sends: Vec<u64> = rows.iter().map(|r| r.send_ns).collect();
+    sends.sort_unstable();
+    let p99 = sends[sends.len() * 99 / 100];
+    assert!(p99 < 1_000_000, "send p99 {p99} ns: sends are not short in normal operation");
 
     // The haptics-like subscriber saw every sequence number.
     let h = read_json(&haptics_out);
