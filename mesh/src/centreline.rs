@@ -43,7 +43,7 @@ pub enum AxisChoice {
     Given([f64; 3]),
 }
 
-/// Settings of [`centreline`].
+/// Settings of [`centreline()`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CentrelineOptions {
     /// Axis along which the stations are spaced. Default [`AxisChoice::LongestBoxAxis`].
@@ -202,7 +202,8 @@ fn edge_key(a: u32, b: u32) -> u64 {
 }
 
 /// The section of `mesh` by the plane `axis · p = height` (m); `axis` need not be unit.
-/// `None` when the plane cuts no closed loop or `axis` is zero or not finite.
+/// `None` when the plane cuts no closed loop of positive area, or `axis` is zero or not
+/// finite.
 pub fn cross_section(mesh: &TriMesh, axis: [f64; 3], height: f64) -> Option<CrossSection> {
     let n = vec3::normalize(axis)?;
     if !height.is_finite() {
@@ -281,7 +282,8 @@ pub fn cross_section(mesh: &TriMesh, axis: [f64; 3], height: f64) -> Option<Cros
             best = Some((area, poly.clone()));
         }
     }
-    let (_, poly) = best?;
+    // A plane that only touches the surface (at a vertex or along an edge) encloses nothing.
+    let (_, poly) = best.filter(|(a, _)| *a > 0.0)?;
     let (area, c2) = polygon_area_centroid(&poly, u, v);
     let origin = poly[0];
     let centroid = vec3::add(origin, vec3::add(vec3::scale(u, c2[0]), vec3::scale(v, c2[1])));

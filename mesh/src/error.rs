@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use crate::units::Units;
 
-/// Why a mesh file could not be loaded (see [`crate::load`]).
+/// Why a mesh file could not be loaded (see [`crate::load()`]).
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshLoadError {
     /// The file could not be opened or read.
@@ -257,7 +257,7 @@ impl fmt::Display for TriMeshBuildError {
 
 impl std::error::Error for TriMeshBuildError {}
 
-/// Why a centreline could not be computed (see [`crate::centreline`]).
+/// Why a centreline could not be computed (see [`crate::centreline()`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CentrelineComputeError {
     /// The mesh has no triangles.

@@ -1,4 +1,4 @@
-//! [`inspect`]: measures and defects of a mesh file, for `lamina inspect FILE`.
+//! [`inspect()`]: measures and defects of a mesh file, for `lamina inspect FILE`.
 //!
 //! Inspection runs the loader's steps (parse, units, weld, orient) but never fails on a
 //! surface's shape: holes, non-manifold edges and non-orientable parts are counted and
@@ -82,7 +82,7 @@ pub fn inspect(path: impl AsRef<Path>) -> Result<Inspection, MeshLoadError> {
 /// (`allow_open` and `allow_non_manifold` are ignored: inspection accepts any surface).
 ///
 /// # Errors
-/// As [`inspect`].
+/// As [`inspect()`].
 pub fn inspect_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Inspection, MeshLoadError> {
     let path = path.as_ref();
     let p = process(path, options)?;

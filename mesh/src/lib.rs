@@ -3,13 +3,13 @@
 //! Everything is `f64` and SI: coordinates in metres, areas in m², volumes in m³. Files in
 //! other units are converted on load ([`Units`], inferred when not given).
 //!
-//! - [`load`] reads STL (binary or ASCII) and OBJ, welds coincident vertices, removes
+//! - [`load()`] reads STL (binary or ASCII) and OBJ, welds coincident vertices, removes
 //!   degenerate triangles, checks that the surface is closed and manifold, and winds it
 //!   consistently outward, reporting what it did in a [`LoadReport`].
-//! - [`inspect`] measures a file and reports its defects without failing on them
+//! - [`inspect()`] measures a file and reports its defects without failing on them
 //!   ([`Inspection`] prints as a table; it backs `lamina inspect FILE`).
 //! - [`RayCaster`] casts rays against a surface through a BVH.
-//! - [`centreline`] slices a limb-like surface into cross-sections along an axis.
+//! - [`centreline()`] slices a limb-like surface into cross-sections along an axis.
 //! - [`synthetic`] builds closed test surfaces (cuboid, sphere, cylinder, cone).
 //!
 //! # Examples

@@ -88,6 +88,10 @@ pub struct LoadReport {
     /// Triangles removed because two of their corners are the same vertex after welding.
     pub degenerate_removed: usize,
     /// Triangles whose winding was reversed to make the surface consistent and outward.
+    ///
+    /// On a closed surface this is exactly the number of triangles the file had wound inward
+    /// (whether they are the minority or the majority); on an open component, where inside
+    /// and outside are undefined, it is the smaller of the two consistent classes.
     pub flipped_fixed: usize,
     /// Units the file was read in.
     pub units: Units,
@@ -110,7 +114,7 @@ pub struct LoadedMesh {
     pub report: LoadReport,
 }
 
-/// Everything the pipeline computed, in file units (shared by [`load`] and inspection).
+/// Everything the pipeline computed, in file units (shared by [`load()`] and inspection).
 pub(crate) struct Processed {
     pub format: MeshFormat,
     pub raw_vertices: usize,

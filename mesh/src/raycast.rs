@@ -28,7 +28,7 @@ pub struct RayHit {
     /// Hit point (m).
     pub point: [f64; 3],
     /// Unit normal of the hit triangle by its winding (outward for a surface loaded with
-    /// [`crate::load`]), not turned toward the ray; zero for a zero-area triangle.
+    /// [`crate::load()`]), not turned toward the ray; zero for a zero-area triangle.
     pub normal: [f64; 3],
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use lamina_mesh::{CentrelineOptions, LoadOptions, Units, centreline, inspect, load};
+use lamina_mesh::{CentrelineOptions, LoadOptions, Units, centreline, cross_section, inspect, load};
 
 fn data_dir() -> Option<PathBuf> {
     let workspace = PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent()?.to_path_buf();
@@ -74,4 +74,47 @@ fn leg_skin_centreline_thigh_works() {
     let s = line.nearest(0.650).unwrap();
     assert!((s.height - 0.650).abs() < 1e-9);
     assert!((s.mean_radius - 0.082).abs() < 0.004, "mean radius {} m", s.mean_radius);
+
+    // The README's other measured mean radii: calf skin, and the fat/muscle boundary.
+    let fat = load(dir.join("fat_muscle_boundary.stl"), &LoadOptions::default()).unwrap().mesh;
+    for (mesh, name, z, r) in
+        [(&skin, "skin", 0.350, 0.057), (&fat, "fat/muscle", 0.650, 0.066), (&fat, "fat/muscle", 0.350, 0.047)]
+    {
+        let s = cross_section(mesh, [0.0, 0.0, 1.0], z).unwrap();
+        println!(
+            "{name} z {z} m: mean radius {:.1} mm (README {:.0} mm), loops {}",
+            s.mean_radius * 1e3,
+            r * 1e3,
+            s.loops
+        );
+        assert!((s.mean_radius - r).abs() < 0.004, "{name} at z {z}: {} m", s.mean_radius);
+    }
+}
+
+#[test]
+fn leg_all_files_load_closed_works() {
+    let Some(dir) = data_dir() else { return };
+    println!("{:<26}{:>10}{:>10}{:>10}{:>9}{:>10}", "file", "triangles", "welded", "flipped", "load ms", "volume L");
+    for name in [
+        "skin_outer.stl",
+        "fat_muscle_boundary.stl",
+        "bone_femur.stl",
+        "bone_tibia.stl",
+        "bone_fibula.stl",
+        "bone_patella.stl",
+    ] {
+        let t0 = Instant::now();
+        let loaded = load(dir.join(name), &LoadOptions::default()).unwrap();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let r = loaded.report;
+        println!(
+            "{name:<26}{:>10}{:>10}{:>10}{ms:>9.1}{:>10.3}",
+            r.triangles,
+            r.welded_vertices,
+            r.flipped_fixed,
+            loaded.mesh.signed_volume() * 1e3
+        );
+        // Closed genus-0 surfaces: V − E + F = 2 with E = 3F / 2.
+        assert_eq!(2 * r.welded_vertices, r.triangles + 4, "{name}");
+    }
 }
