@@ -32,6 +32,8 @@
 
 pub mod bridge;
 pub mod clock;
+pub mod device;
+pub mod haptics;
 pub mod publish;
 pub mod services;
 pub mod shutdown;

@@ -372,6 +372,13 @@ impl<M: Message> MessagePublisher<M> {
         Ok(delivered)
     }
 
+    /// Sends a copy of `message` without the wake-up: for streams whose subscribers poll
+    /// every tick (tool commands at the device rate, feedback to the haptics loop), where the
+    /// notification's system call would cost more than the message.
+    pub fn publish_polled(&self, message: &M) -> Result<usize, MessagePublishError> {
+        Ok(self.publisher.loan_uninit()?.write_payload(*message).send()?)
+    }
+
     /// Connects new subscribers and hands them the last message (history) without sending.
     pub fn update_connections(&self) -> Result<(), ConnectionFailure> {
         self.publisher.update_connections()

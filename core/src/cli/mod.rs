@@ -4,6 +4,7 @@ pub mod bench_effects;
 pub mod bench_yardstick;
 pub mod demo;
 pub mod generate;
+pub mod haptic_link;
 pub mod machine;
 pub mod plot;
 pub mod profile;

@@ -7,12 +7,15 @@ use lamina_bridge::{
 };
 use lamina_core::model::Model;
 use lamina_core::real::Real;
+use lamina_core::scene::ToolSettings;
 use lamina_core::solver::State;
 use lamina_rt::MonitorSummary;
 
 /// Publishers of one core process.
 pub struct CorePublisher {
     // Field order is drop order: ports before the node that owns them.
+    /// The haptic link, when the scene's tool is driven by the haptics process.
+    pub haptic: Option<super::haptic_link::HapticLink>,
     nodes: NodesPublisher,
     stats: StatsPublisher,
     topology: TopologyPublisher,
@@ -46,8 +49,9 @@ pub fn topology_of(model: &Model) -> Topology {
 }
 
 impl CorePublisher {
-    /// Opens the bridge under `prefix` and publishes the topology.
-    pub fn open(prefix: &str, model: &Model) -> Result<Self, String> {
+    /// Opens the bridge under `prefix` and publishes the topology; with a haptics-driven
+    /// `tool`, also subscribes to `tool` and publishes `feedback`.
+    pub fn open(prefix: &str, model: &Model, tool: Option<&ToolSettings>) -> Result<Self, String> {
         let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(|e| format!("bridge: {e}"))?;
         let topology = topology_of(model);
         let mut topo_pub =
@@ -55,7 +59,17 @@ impl CorePublisher {
         topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;
         let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| format!("nodes service: {e}"))?;
         let stats = StatsPublisher::create(&bridge).map_err(|e| format!("stats service: {e}"))?;
-        Ok(Self { nodes, stats, topology: topo_pub, _bridge: bridge, stats_sequence: 0, sequence: 0, failures: 0 })
+        let haptic = super::haptic_link::HapticLink::open(&bridge, tool)?;
+        Ok(Self {
+            haptic,
+            nodes,
+            stats,
+            topology: topo_pub,
+            _bridge: bridge,
+            stats_sequence: 0,
+            sequence: 0,
+            failures: 0,
+        })
     }
 
     /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.

@@ -110,8 +110,13 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
     let mut publisher = match &opts.prefix {
         Some(prefix) => {
-            let p = super::publish::CorePublisher::open(prefix, &model)?;
+            let p = super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
+            if p.haptic.is_some() {
+                println!(
+                    "tool: sphere driven by the haptics process on '{prefix}/tool', contact published on '{prefix}/feedback' every tick"
+                );
+            }
             Some(p)
         }
         None => None,
@@ -125,9 +130,17 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
         let clock = MonotonicClock::new();
         let run = lp.run(RunLimit::duration_ns(chunk).and_stop_flag(&STOP), &mut monitor, |info| {
+            if let Some(h) = publisher.as_mut().and_then(|p| p.haptic.as_mut()) {
+                h.before_step(&mut sim);
+            }
             sim.step();
             if let Some(p) = publisher.as_mut() {
-                probe.measure(&clock, || p.publish_nodes(info.tick, sim.state()));
+                probe.measure(&clock, || {
+                    if let Some(h) = p.haptic.as_mut() {
+                        h.after_step(&sim, info.tick);
+                    }
+                    p.publish_nodes(info.tick, sim.state())
+                });
             }
             ControlFlow::Continue(())
         });
@@ -190,6 +203,13 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     );
     if let Some(p) = &publisher {
         println!("published {} node frames ({} publish failures)", p.sequence, p.failures);
+        if let Some(h) = &p.haptic {
+            let c = h.counts;
+            println!(
+                "haptic link: {} tool commands applied, {} refused (non-finite or implausible), parked {} time(s), {} feedback messages ({} non-finite replaced by no-contact), {} port failures",
+                c.commands, c.bad_commands, c.parked, c.feedback, c.bad_feedback, c.failures
+            );
+        }
     }
     if let Some(path) = &opts.ticks_csv {
         let mut text = String::from("tick,wake_ns,lateness_ns,compute_ns,send_ns\n");

@@ -3,6 +3,8 @@
 
 mod layered_block;
 mod scene_file;
+mod tool_settings;
 
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use scene_file::{ModelSource, OverrunChoice, Precision, RealtimeSettings, Scene, SceneLoadError};
+pub use tool_settings::{ToolSettings, ToolSource};

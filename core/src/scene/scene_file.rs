@@ -1,6 +1,7 @@
 //! The scene file (TOML) and its loading, with errors that name file, line and column.
 
 use super::layered_block::{BlockSpec, LayerMaterial, layered_block};
+use super::tool_settings::{ToolSettings, ToolSource};
 use crate::model::Model;
 use crate::solver::{
     BoneMotion, DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, PointLoad, SimdLevel,
@@ -84,6 +85,9 @@ pub struct Scene {
     pub effects: Effects,
     /// Real-time settings.
     pub realtime: RealtimeSettings,
+    /// The haptic tool (`[effects.tool]`), when the scene has one. A scripted tool is also in
+    /// `effects.tool`; a haptics-driven one enters the loop with the first command.
+    pub tool: Option<ToolSettings>,
     /// File the scene was read from (`None` for the built-in one).
     pub path: Option<PathBuf>,
 }
@@ -220,6 +224,19 @@ struct RawEffects {
     #[serde(default)]
     handles: Vec<RawHandle>,
     guard: Option<RawGuard>,
+    tool: Option<RawTool>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    radius: f64,
+    stiffness: f64,
+    source: String,
+    start: Option<[f64; 3]>,
+    velocity: Option<[f64; 3]>,
+    device_origin: Option<[f64; 3]>,
+    timeout_ms: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -452,6 +469,36 @@ impl Scene {
                 Some(g)
             }
         };
+        let tool = match e.tool {
+            None => None,
+            Some(t) => {
+                if !(t.radius.is_finite() && t.radius > 0.0 && t.stiffness.is_finite() && t.stiffness > 0.0) {
+                    return Err(value_err("effects.tool", "radius and stiffness must be finite and positive"));
+                }
+                let source = match t.source.as_str() {
+                    "scripted" => {
+                        let start = t.start.ok_or_else(|| value_err("effects.tool.start", "required when scripted"))?;
+                        let velocity = t.velocity.unwrap_or([0.0; 3]);
+                        if !(finite3(&start) && finite3(&velocity)) {
+                            return Err(value_err("effects.tool", "start and velocity must be finite"));
+                        }
+                        ToolSource::Scripted { start, velocity }
+                    }
+                    "haptics" => {
+                        let device_origin = t.device_origin.ok_or_else(|| {
+                            value_err("effects.tool.device_origin", "required when source = \"haptics\"")
+                        })?;
+                        let timeout_s = t.timeout_ms.unwrap_or(100.0) * 1e-3;
+                        if !(finite3(&device_origin) && timeout_s.is_finite() && timeout_s > 0.0) {
+                            return Err(value_err("effects.tool", "device_origin finite and timeout_ms positive"));
+                        }
+                        ToolSource::Haptics { device_origin, timeout_s }
+                    }
+                    _ => return Err(value_err("effects.tool.source", "\"scripted\" or \"haptics\"")),
+                };
+                Some(ToolSettings { radius: t.radius, stiffness: t.stiffness, source })
+            }
+        };
         let effects = Effects {
             gravity: e.gravity,
             viscous_damping: viscous,
@@ -461,7 +508,7 @@ impl Scene {
             loads,
             handles,
             guard,
-            tool: None,
+            tool: tool.and_then(|t| t.initial_sphere()),
         };
         let r = raw.realtime;
         let overrun = match r.overrun.as_deref().unwrap_or("skip") {
@@ -493,6 +540,7 @@ impl Scene {
             solver,
             effects,
             realtime,
+            tool,
             path: path.map(Path::to_path_buf),
         })
     }
@@ -531,6 +579,39 @@ mod tests {
         assert!(s.effects.bone && s.effects.guard.is_some());
         let m = s.build_model().unwrap();
         assert!(m.nodes.len() > 1000);
+    }
+
+    #[test]
+    fn scene_tool_sections_parse_works() {
+        let s = Scene::builtin_default();
+        let tool = s.tool.expect("the default scene has a haptic tool");
+        assert!(matches!(tool.source, ToolSource::Haptics { timeout_s, .. } if (timeout_s - 0.1).abs() < 1e-12));
+        assert!(s.effects.tool.is_none(), "a haptics tool is parked until the first command");
+        let text = "[effects.tool]\nsource = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.1, 0.0]\nvelocity = [0.0, -0.01, 0.0]\n";
+        let s = Scene::from_toml_str(text, None).unwrap();
+        let sphere = s.effects.tool.expect("a scripted tool is in the loop from the start");
+        assert_eq!((sphere.radius, sphere.stiffness, sphere.velocity), (0.01, 200.0, [0.0, -0.01, 0.0]));
+    }
+
+    #[test]
+    fn scene_tool_bad_values_name_the_field_fails() {
+        let cases = [
+            ("source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.device_origin"),
+            ("source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.start"),
+            ("source = \"wand\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.source"),
+            ("source = \"scripted\"\nradius = -0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
+            ("source = \"scripted\"\nradius = nan\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
+        ];
+        for (body, field) in cases {
+            let text = format!("[effects.tool]\n{body}");
+            match Scene::from_toml_str(&text, Some(Path::new("tool.toml"))) {
+                Err(SceneLoadError::Value { field: f, path, .. }) => {
+                    assert_eq!(f, field, "{body}");
+                    assert_eq!(path, Path::new("tool.toml"));
+                }
+                other => panic!("{body}: expected a value error on {field}, got {other:?}"),
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,285 @@
+//! `lamina-haptics`: the haptics process. Drives a force-feedback device at 1-4 kHz on
+//! absolute deadlines, sends its pose to the core on `tool`, renders force locally from the
+//! core's newest `feedback`, and keeps the hand safe (clamped, finite, zero when the core
+//! goes quiet). Prints the device loop's rate and jitter and the core-to-device latency at
+//! exit, and writes them as JSON with `--report`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+
+use clap::Parser;
+use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice};
+use lamina_bridge::haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
+use lamina_bridge::{Bridge, BridgeConfig};
+use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Drive a haptic device against a running Lamina core.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// Service prefix of the simulation.
+    #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Device: `null`, `scripted:FILE.csv` (trajectory replay) or `plugin:LIB.so` (a vendor
+    /// wrapper built against bridge/include/lamina_device.h).
+    #[arg(long, default_value = "null")]
+    device: String,
+    /// Argument string handed to a plugin's `lamina_device_open`.
+    #[arg(long, default_value = "")]
+    device_args: String,
+    /// Device loop rate, Hz.
+    #[arg(long, default_value_t = 4000)]
+    rate_hz: u32,
+    /// Run time, s; default: a scripted device's trajectory length plus 0.2 s, else until
+    /// SIGINT/SIGTERM.
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Model position of the device's workspace centre, m, as `x,y,z` (the scene's
+    /// `effects.tool.device_origin`).
+    #[arg(long, default_value = "0,0,0", value_parser = parse_vec3)]
+    origin: [f64; 3],
+    /// Tool tip radius sent to the core, m; 0 uses the scene's.
+    #[arg(long, default_value_t = 0.0)]
+    tool_radius: f64,
+    /// Cap on the force, N, below the device's own limit.
+    #[arg(long)]
+    max_force: Option<f64>,
+    /// Write the JSON report here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Write every tick (time, handle position, force, gain, contact) as CSV here.
+    #[arg(long)]
+    trace_csv: Option<PathBuf>,
+    /// Pin the device loop to this CPU.
+    #[arg(long)]
+    cpu: Option<usize>,
+    /// SCHED_FIFO priority (0: off).
+    #[arg(long, default_value_t = 85)]
+    fifo: i32,
+    /// Print only the final table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> =
+        s.split(',').map(|p| p.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("'{s}': expected three finite numbers x,y,z (m)")),
+    }
+}
+
+/// Opens the device named by `--device`, with the script length when it has one.
+fn open_device(spec: &str, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    if spec == "null" {
+        return Ok((Box::new(NullDevice::default()), None));
+    }
+    if let Some(path) = spec.strip_prefix("scripted:") {
+        return open_scripted(Path::new(path));
+    }
+    if let Some(path) = spec.strip_prefix("plugin:") {
+        return open_plugin(Path::new(path), args);
+    }
+    Err(DeviceError::Disconnected {
+        detail: format!("unknown device '{spec}': use null, scripted:FILE.csv or plugin:LIB.so"),
+    })
+}
+
+fn open_scripted(path: &Path) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    Err(DeviceError::Disconnected { detail: format!("{}: scripted devices are not built in yet", path.display()) })
+}
+
+fn open_plugin(path: &Path, _args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    Err(DeviceError::Disconnected { detail: format!("{}: plugins are not built in yet", path.display()) })
+}
+
+fn us(ns: u64) -> f64 {
+    ns as f64 / 1e3
+}
+
+fn print_report(r: &HapticsReport, rate_hz: u32, device: &str) {
+    let s = r.monitor.summary();
+    let l = &r.core_to_device_ns;
+    println!("haptics device loop ({device}) at {rate_hz} Hz");
+    println!("  ticks {} misses {} skipped periods {}", s.ticks, s.misses, s.skipped_periods);
+    println!(
+        "  period  p50 {:>8.1} us  p99 {:>8.1} us  p99.9 {:>8.1} us  max {:>8.1} us  (jitter p99 {:+.1} us)",
+        us(s.period.p50_ns),
+        us(s.period.p99_ns),
+        us(s.period.p999_ns),
+        us(s.period.max_ns),
+        us(s.period.p99_ns) - 1e6 / rate_hz as f64
+    );
+    println!(
+        "  lateness p50 {:>7.1} us  p99 {:>8.1} us  max {:>8.1} us | compute p50 {:.1} us p99 {:.1} us max {:.1} us",
+        us(s.lateness.p50_ns),
+        us(s.lateness.p99_ns),
+        us(s.lateness.max_ns),
+        us(s.compute.p50_ns),
+        us(s.compute.p99_ns),
+        us(s.compute.max_ns)
+    );
+    if l.is_empty() {
+        println!("  core -> device latency: no feedback received (is the core running with a haptics tool?)");
+    } else {
+        println!(
+            "  core -> device latency ({} feedback messages): p50 {:.1} us  p99 {:.1} us  p99.9 {:.1} us  max {:.1} us",
+            l.len(),
+            us(l.value_at_quantile(0.5)),
+            us(l.value_at_quantile(0.99)),
+            us(l.value_at_quantile(0.999)),
+            us(l.max())
+        );
+    }
+    let c = &r.safety;
+    println!(
+        "  safety: max force {:.3} N (limit {:.2} N); clamped ticks {}; stiffness limited {} (limit {:.0} N/m); non-finite feedback {}, pose {}, force {}; quiet ticks {} in {} episode(s); events dropped {}",
+        r.max_force_n,
+        r.limits.max_force_n,
+        c.force_clamped_ticks,
+        c.stiffness_limited,
+        r.limits.max_stiffness_n_per_m,
+        c.feedback_non_finite,
+        c.device_pose_non_finite,
+        c.force_non_finite,
+        c.quiet_ticks,
+        c.quiet_episodes,
+        c.events_dropped
+    );
+    println!("  tool commands sent {}, port failures {}", r.commands_sent, r.port_failures);
+}
+
+fn report_json(r: &HapticsReport, rate_hz: u32, device: &str) -> serde_json::Value {
+    let l = &r.core_to_device_ns;
+    let q = |p: f64| if l.is_empty() { 0 } else { l.value_at_quantile(p) };
+    serde_json::json!({
+        "device": device,
+        "rate_hz": rate_hz,
+        "loop": serde_json::from_str::<serde_json::Value>(&r.monitor.report_json()).unwrap_or_default(),
+        "core_to_device_latency": {
+            "count": l.len(), "p50_ns": q(0.5), "p99_ns": q(0.99), "p999_ns": q(0.999),
+            "max_ns": if l.is_empty() { 0 } else { l.max() },
+        },
+        "safety": r.safety,
+        "max_force_n": r.max_force_n,
+        "limits": {
+            "max_force_n": r.limits.max_force_n,
+            "max_stiffness_n_per_m": r.limits.max_stiffness_n_per_m,
+            "damping_n_s_per_m": r.limits.damping_n_s_per_m,
+            "zero_after_ns": r.limits.zero_after_ns(),
+        },
+        "commands_sent": r.commands_sent,
+        "port_failures": r.port_failures,
+        "device_error": r.device_error.as_ref().map(|e| e.to_string()),
+    })
+}
+
+fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(out, "time_ns,x_m,y_m,z_m,fx_n,fy_n,fz_n,gain,in_contact,core_tick")?;
+    for t in &r.trace {
+        let (p, f) = (t.position_dev_m, t.force_dev_n);
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{}",
+            t.time_ns,
+            p[0],
+            p[1],
+            p[2],
+            f[0],
+            f[1],
+            f[2],
+            t.gain,
+            u8::from(t.in_contact),
+            t.core_tick
+        )?;
+    }
+    out.flush()
+}
+
+fn run(args: &Args) -> Result<bool, String> {
+    let (mut device, script_s) =
+        open_device(&args.device, &args.device_args).map_err(|e| format!("haptic device '{}': {e}", args.device))?;
+    let seconds = args.seconds.or(script_s.map(|s| s + 0.2));
+    if let Some(s) = seconds
+        && !(s.is_finite() && s > 0.0)
+    {
+        return Err("--seconds must be positive".into());
+    }
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&args.prefix)).map_err(|e| format!("bridge: {e}"))?;
+    let _ = install_stop_handler(&STOP);
+    let (tx, rx) = crossbeam::channel::bounded::<SafetyEvent>(1024);
+    let quiet = args.quiet;
+    let logger = std::thread::spawn(move || {
+        let mut first: Option<u64> = None;
+        for ev in rx {
+            let t0 = *first.get_or_insert(ev.time_ns);
+            if !quiet {
+                eprintln!("haptics: [{:>9.3} ms, tick {}] {}", (ev.time_ns - t0) as f64 / 1e6, ev.tick, ev.kind);
+            }
+        }
+    });
+    let mut request = RealtimeRequest::new();
+    request.cpu = args.cpu;
+    if args.fifo > 0 {
+        request = request.fifo_priority(args.fifo);
+    }
+    let setup = RealtimeSetup::apply(&request.lock_memory());
+    if !args.quiet {
+        print!("{setup}");
+    }
+    let trace_capacity = match (&args.trace_csv, seconds) {
+        (Some(_), Some(s)) => (s * args.rate_hz as f64) as usize + 16,
+        (Some(_), None) => 600 * args.rate_hz as usize,
+        _ => 0,
+    };
+    let cfg = HapticsConfig {
+        rate_hz: args.rate_hz,
+        mapping: DeviceMapping::y_up_model(args.origin),
+        tool_radius_m: args.tool_radius,
+        max_force_n: args.max_force,
+        trace_capacity,
+    };
+    let name = device.info().name.clone();
+    let limit = match seconds {
+        Some(s) => RunLimit::duration_ns((s * 1e9) as u64).and_stop_flag(&STOP),
+        None => RunLimit::until_stopped(&STOP),
+    };
+    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx)).map_err(|e| e.to_string())?;
+    drop(tx);
+    let _ = logger.join();
+    print_report(&report, args.rate_hz, &name);
+    if let Some(path) = &args.report {
+        let text = serde_json::to_string_pretty(&report_json(&report, args.rate_hz, &name)).unwrap_or_default();
+        std::fs::write(path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("report written to {}", path.display());
+    }
+    if let Some(path) = &args.trace_csv {
+        write_trace(&report, path).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("trace written to {} ({} ticks)", path.display(), report.trace.len());
+    }
+    match &report.device_error {
+        Some(e) => {
+            eprintln!("haptics: device '{name}' failed: {e}. Force set to zero; the core keeps running.");
+            Ok(false)
+        }
+        None => Ok(true),
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    match run(&args) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(3),
+        Err(e) => {
+            eprintln!("lamina-haptics: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,88 @@
+//! The haptic device driver interface: what a force-feedback device must do for Lamina.
+//!
+//! # Frame and units (CHAI3D's convention)
+//! Everything is SI and in the **device frame**: origin at the centre of the device's
+//! workspace, **x toward the operator, y to the operator's right, z up** (right-handed).
+//! Positions are metres, forces newtons, orientations unit quaternions `[x, y, z, w]` rotating
+//! the handle frame into the device frame. The haptics process maps this frame onto the model
+//! frame ([`crate::haptics::DeviceMapping`]); a device never sees the model.
+//!
+//! # Implementations
+//! - [`NullDevice`]: no device connected; reads a fixed pose, swallows forces. Nothing ever
+//!   has to handle "no device".
+//! - [`ScriptedDevice`]: replays a push/pull trajectory from a CSV file (the paper's Fig. 12),
+//!   recording every force it was sent.
+//! - [`PluginDevice`]: a vendor SDK wrapper (Force Dimension, OpenHaptics, libnifalcon) built
+//!   as a shared library against `bridge/include/lamina_device.h` and loaded at run time.
+//!
+//! # Contract
+//! `read` samples the handle (call it once per device-loop tick); `write_force` commands the
+//! force held until the next call. A device that is unplugged returns
+//! [`DeviceError::Disconnected`] from either; the caller stops writing and reports it. Forces
+//! reaching `write_force` have already been made finite and clamped to
+//! [`DeviceInfo::max_force_n`] by the haptics process; implementations clamp again anyway.
+//!
+//! # Examples
+//!
+//! ```
+//! use lamina_bridge::device::{HapticDevice, NullDevice};
+//!
+//! # fn main() -> Result<(), Box<dyn core::error::Error>> {
+//! let mut device = NullDevice::default();
+//! let state = device.read()?;
+//! assert_eq!(state.position_m, [0.0; 3]);
+//! device.write_force([0.0, 0.0, 1.0])?;
+//! assert!(device.info().max_force_n > 0.0);
+//! # Ok(())
+//! # }
+//! ```
+
+mod error;
+mod null;
+
+pub use error::DeviceError;
+pub use null::NullDevice;
+
+/// What a device is and what it can safely do.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceInfo {
+    /// Human-readable model name, e.g. `"Force Dimension omega.3"`.
+    pub name: String,
+    /// Largest force the device may be commanded, N (norm of the force vector).
+    pub max_force_n: f64,
+    /// Largest stiffness the device renders stably, N/m; the haptics process never renders a
+    /// stiffer local model.
+    pub max_stiffness_n_per_m: f64,
+    /// Largest viscous damping the device renders stably, N·s/m.
+    pub max_damping_n_s_per_m: f64,
+    /// Radius of the sphere (about the origin) the handle can reach, m.
+    pub workspace_radius_m: f64,
+}
+
+/// One sample of the handle, in the device frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceState {
+    /// Handle position, m.
+    pub position_m: [f64; 3],
+    /// Handle orientation as a unit quaternion `[x, y, z, w]` (identity `[0, 0, 0, 1]`).
+    pub orientation: [f64; 4],
+    /// Button bit set: bit `i` set means button `i` is pressed.
+    pub buttons: u32,
+}
+
+impl Default for DeviceState {
+    /// At the workspace centre, identity orientation, no buttons.
+    fn default() -> Self {
+        Self { position_m: [0.0; 3], orientation: [0.0, 0.0, 0.0, 1.0], buttons: 0 }
+    }
+}
+
+/// A force-feedback device (see the module docs for frame, units and contract).
+pub trait HapticDevice: Send {
+    /// What the device is and its safe limits.
+    fn info(&self) -> &DeviceInfo;
+    /// Samples the handle.
+    fn read(&mut self) -> Result<DeviceState, DeviceError>;
+    /// Commands `force_n` (N, device frame) until the next call.
+    fn write_force(&mut self, force_n: [f64; 3]) -> Result<(), DeviceError>;
+}

@@ -1,0 +1,26 @@
+//! The haptics process's parts: a device loop at 1-4 kHz that sends the handle's pose to the
+//! core and renders force locally from the core's latest contact model, so that a late core
+//! tick never makes the device unstable, and never hurts the hand holding it.
+//!
+//! # How it fits together
+//! 1. [`DeviceMapping`] places the device frame (CHAI3D convention, see [`crate::device`]) in
+//!    the model frame.
+//! 2. [`ForceRenderer`] turns the newest `feedback` message (force and local stiffness) into a
+//!    force at the handle's current position, with stiffness and force limits, unilateral
+//!    contact, coupling damping, and a fade to zero when the core goes quiet.
+//! 3. [`run_device_loop`] runs it on absolute deadlines with a deadline monitor, and measures
+//!    core-to-device latency.
+//! 4. [`SafetyEvent`]s leave the loop over a bounded channel to be logged elsewhere.
+//!
+//! Architecture invariant: the haptics process knows nothing of the physics. It sees a tool
+//! pose, a force and a stiffness.
+
+mod device_loop;
+mod mapping;
+mod renderer;
+mod safety;
+
+pub use device_loop::{HapticsConfig, HapticsReport, HapticsStartError, TraceRow, run_device_loop};
+pub use mapping::DeviceMapping;
+pub use renderer::{ForceRenderer, RenderLimits, RenderedForce};
+pub use safety::{SafetyCounts, SafetyEvent, SafetyEventKind};

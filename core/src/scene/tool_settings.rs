@@ -1,0 +1,47 @@
+//! The scene's haptic tool: a sphere pushed into the tissue, driven by a script or by the
+//! haptics process over the `tool` service.
+
+/// Where the tool's position comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ToolSource {
+    /// Moves as `start + velocity · t` (offline studies, tests).
+    Scripted {
+        /// Centre at t = 0, m (model frame).
+        start: [f64; 3],
+        /// Centre velocity, m/s.
+        velocity: [f64; 3],
+    },
+    /// Follows the newest `ToolCommand` from the haptics process; parked (out of the loop)
+    /// until the first command and again when commands stop for `timeout_s`.
+    Haptics {
+        /// Model position of the device's workspace centre, m. The haptics process maps its
+        /// device frame onto the model frame about this point (`lamina demo` passes it on).
+        device_origin: [f64; 3],
+        /// Commands older than this park the tool, s. Default 0.1.
+        timeout_s: f64,
+    },
+}
+
+/// The scene's `[effects.tool]` table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToolSettings {
+    /// Sphere radius, m (a haptics command may carry its own).
+    pub radius: f64,
+    /// Penalty stiffness per node in contact, N/m.
+    pub stiffness: f64,
+    /// Script or haptics.
+    pub source: ToolSource,
+}
+
+impl ToolSettings {
+    /// The sphere this tool starts as in the loop: `Some` for a scripted tool, `None` (parked)
+    /// for a haptics-driven one.
+    pub fn initial_sphere(&self) -> Option<crate::solver::SphereTool> {
+        match self.source {
+            ToolSource::Scripted { start, velocity } => {
+                Some(crate::solver::SphereTool { radius: self.radius, stiffness: self.stiffness, start, velocity })
+            }
+            ToolSource::Haptics { .. } => None,
+        }
+    }
+}
