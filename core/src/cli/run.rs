@@ -48,9 +48,14 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         return Err("--seconds must be positive".into());
     }
     let model = scene.build_model().map_err(|e| e.to_string())?;
-    let mut sim = Simulation::<T>::new(&model, scene.solver.clone(), scene.effects.clone()).map_err(|e| {
+    let effects = super::haptic_link::effects_for_build(scene);
+    let mut sim = Simulation::<T>::new(&model, scene.solver.clone(), effects).map_err(|e| {
         format!("{}: {e}", scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string()))
     })?;
+    if scene.tool.is_some_and(|t| matches!(t.source, lamina_core::scene::ToolSource::Haptics { .. })) {
+        // Counted in the critical step above, out of the loop until the haptics process speaks.
+        sim.effects_mut().tool = None;
+    }
     let _ = install_stop_handler(&STOP);
     println!(
         "scene '{}' ({}): {} nodes, {} springs, {} layers",
@@ -110,9 +115,10 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
     let mut publisher = match &opts.prefix {
         Some(prefix) => {
-            let p = super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref())?;
+            let mut p = super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
-            if p.haptic.is_some() {
+            if let Some(h) = p.haptic.as_mut() {
+                h.prepare(&mut sim);
                 println!(
                     "tool: sphere driven by the haptics process on '{prefix}/tool', contact published on '{prefix}/feedback' every tick"
                 );

@@ -255,6 +255,11 @@ impl<T: Real> Simulation<T> {
         &self.quarantine
     }
 
+    /// Whether node `i` moves (false for fixed bone nodes and out-of-range indices).
+    pub fn node_is_free(&self, i: usize) -> bool {
+        self.dynamics.free.get(i).is_some_and(|f| *f != T::ZERO)
+    }
+
     /// What the tool felt at the last force evaluation (zero when no tool is on).
     pub fn tool_feedback(&self) -> crate::solver::ToolFeedback {
         self.dynamics.tool_feedback
