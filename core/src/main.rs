@@ -70,13 +70,14 @@ enum Command {
         /// The mesh file.
         file: PathBuf,
     },
-    /// The main job as processes: the core and the viewer (headless without a display).
+    /// The main job as processes: the core, haptics with a scripted device, and the viewer
+    /// (headless without a display).
     Demo {
         /// Scene; the built-in default when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
         /// How long to run, s.
-        #[arg(long, default_value_t = 5.0)]
+        #[arg(long, default_value_t = 8.0)]
         seconds: f64,
         /// Output folder (frames, reports, logs).
         #[arg(long, default_value = "out/demo")]

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
-use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice};
+use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice, ScriptedDevice, Trajectory};
 use lamina_bridge::haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
@@ -75,23 +75,46 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
 }
 
 /// Opens the device named by `--device`, with the script length when it has one.
-fn open_device(spec: &str, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+fn open_device(spec: &str, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), String> {
     if spec == "null" {
         return Ok((Box::new(NullDevice::default()), None));
     }
     if let Some(path) = spec.strip_prefix("scripted:") {
-        return open_scripted(Path::new(path));
+        return open_scripted(Path::new(path), args).map_err(|e| e.to_string());
     }
     if let Some(path) = spec.strip_prefix("plugin:") {
-        return open_plugin(Path::new(path), args);
+        return open_plugin(Path::new(path), args).map_err(|e| e.to_string());
     }
-    Err(DeviceError::Disconnected {
-        detail: format!("unknown device '{spec}': use null, scripted:FILE.csv or plugin:LIB.so"),
-    })
+    Err(format!("unknown device '{spec}': use null, scripted:FILE.csv or plugin:LIB.so"))
 }
 
-fn open_scripted(path: &Path) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
-    Err(DeviceError::Disconnected { detail: format!("{}: scripted devices are not built in yet", path.display()) })
+/// A scripted device; `args` may hold `disconnect_after_s=T` (the device vanishes at T s).
+fn open_scripted(path: &Path, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    let trajectory = Trajectory::load(path)?;
+    let duration = trajectory.duration_s();
+    let mut device = ScriptedDevice::new(trajectory, ScriptedDevice::default_info(), 0);
+    for arg in args.split([',', ' ']).filter(|a| !a.is_empty()) {
+        match arg.split_once('=') {
+            Some(("disconnect_after_s", v)) => match v.parse::<f64>() {
+                Ok(t) if t.is_finite() && t >= 0.0 => device.disconnect_after(t),
+                _ => {
+                    return Err(DeviceError::Script {
+                        file: path.display().to_string(),
+                        line: 0,
+                        what: format!("--device-args: '{arg}': expected disconnect_after_s=SECONDS"),
+                    });
+                }
+            },
+            _ => {
+                return Err(DeviceError::Script {
+                    file: path.display().to_string(),
+                    line: 0,
+                    what: format!("--device-args: unknown '{arg}' (scripted devices take disconnect_after_s=SECONDS)"),
+                });
+            }
+        }
+    }
+    Ok((Box::new(device), Some(duration)))
 }
 
 fn open_plugin(path: &Path, _args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {

@@ -39,9 +39,11 @@
 
 mod error;
 mod null;
+mod scripted;
 
 pub use error::DeviceError;
 pub use null::NullDevice;
+pub use scripted::{ScriptedDevice, Trajectory, TrajectoryPoint};
 
 /// What a device is and what it can safely do.
 #[derive(Debug, Clone, PartialEq)]

@@ -17,11 +17,12 @@ pub struct RenderLimits {
     /// `min(max_damping, max_stiffness · period)`, twice the passivity bound `K·T/2` of a
     /// sampled virtual wall (Colgate and Schenkel 1997).
     pub damping_n_s_per_m: f64,
-    /// Feedback younger than this renders at full strength, ns. Default 2 ms (two core ticks
-    /// at 1 kHz).
+    /// Feedback younger than this renders at full strength, ns. Default 3 ms: a core tick
+    /// up to two periods late (at 1 kHz) goes unnoticed by the hand.
     pub quiet_after_ns: u64,
-    /// After `quiet_after_ns` the force fades linearly to zero over this, ns. Default 2 ms,
-    /// so a quiet core gives zero force 4 ms after its last message.
+    /// After `quiet_after_ns` the force fades linearly to zero over this, ns. Default 1.5 ms,
+    /// so a quiet core gives zero force 4.5 ms after its last message (the requirement is 5 ms;
+    /// the margin covers one device-loop period).
     pub fade_ns: u64,
     /// When feedback starts (or resumes), the force ramps in over this, ns. Default 20 ms.
     pub onset_ns: u64,
@@ -35,8 +36,8 @@ impl RenderLimits {
             max_force_n: info.max_force_n,
             max_stiffness_n_per_m: k,
             damping_n_s_per_m: info.max_damping_n_s_per_m.min(k * period_ns as f64 * 1e-9),
-            quiet_after_ns: 2_000_000,
-            fade_ns: 2_000_000,
+            quiet_after_ns: 3_000_000,
+            fade_ns: 1_500_000,
             onset_ns: 20_000_000,
         }
     }
@@ -78,7 +79,8 @@ struct LocalModel {
 /// 2. [`render`](Self::render) evaluates the model at the handle's position, keeps it
 ///    unilateral (a contact pushes, never pulls: a force turned against the contact normal is
 ///    zero), adds coupling damping in contact, scales by the staleness gain (full up to
-///    `quiet_after_ns`, zero from `quiet_after_ns + fade_ns`) and the onset ramp, and clamps
+///    `quiet_after_ns`, zero from `quiet_after_ns + fade_ns`, 4.5 ms by default) and the onset
+///    ramp, and clamps
 ///    the norm to the device limit. Whatever comes out is finite.
 ///
 /// It allocates nothing and does no I/O: it runs inside the device loop.

@@ -1,10 +1,18 @@
-//! `lamina demo`: the main job as cooperating processes: the core (`lamina run`) stepping the
-//! scene at 1 kHz and publishing, and the viewer (`lamina-viewer`, headless when there is no
-//! display) drawing it to PNG frames. At exit it prints the core's deadline figures, the
-//! viewer's frame times and core-to-viewer latency, and where the frames are.
+//! `lamina demo`: the main job as three cooperating processes on one service prefix:
+//! - the core (`lamina run`) stepping the scene at its rate, pinned to the last CPU;
+//! - the haptics process (`lamina-haptics`) with a scripted device pressing into the skin and
+//!   then grasping and pulling it (`config/trajectories/demo_press_pull.csv`, built in),
+//!   device loop at 4 kHz pinned to the first CPU;
+//! - the viewer (`lamina-viewer`, headless when there is no display) writing PNG frames.
+//!
+//! At exit it prints the cross-process profile (core deadlines, device-loop rate and jitter,
+//! core-to-device and core-to-viewer latency, viewer frame time) and where everything went.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+
+/// The demo's device script (device frame, metres, buttons), written to the output folder.
+pub const DEMO_TRAJECTORY: &str = include_str!("../../../config/trajectories/demo_press_pull.csv");
 
 fn sibling(name: &str) -> Result<PathBuf, String> {
     let path = std::env::current_exe().map_err(|e| e.to_string())?.with_file_name(name);
@@ -15,13 +23,31 @@ fn sibling(name: &str) -> Result<PathBuf, String> {
     }
 }
 
-/// Runs the demo for `seconds`, writing frames under `out`.
+fn file(path: &Path) -> Result<std::fs::File, String> {
+    std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The haptics arguments for `scene`: the device origin of its haptics-driven tool.
+pub fn haptics_origin(scene: Option<&Path>) -> Result<Option<[f64; 3]>, String> {
+    let scene = super::run::load_scene(&scene.map(Path::to_path_buf))?;
+    Ok(scene.tool.and_then(|t| match t.source {
+        lamina_core::scene::ToolSource::Haptics { device_origin, .. } => Some(device_origin),
+        lamina_core::scene::ToolSource::Scripted { .. } => None,
+    }))
+}
+
+/// Runs the demo for `seconds`, writing frames and reports under `out`.
 pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String> {
+    if !(seconds.is_finite() && seconds > 0.0) {
+        return Err("--seconds must be positive".into());
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let prefix = format!("demo_{}", std::process::id());
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| format!("{}: {e}", frames_dir.display()))?;
     let headless = std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
+    let origin = haptics_origin(scene)?;
+
     // The viewer first: it waits for the core and must not miss its topology.
     let mut viewer = Command::new(sibling("lamina-viewer")?);
     viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "5"]);
@@ -33,24 +59,74 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
         viewer.arg("--scene").arg(s);
     }
     let viewer_log = out.join("viewer.log");
-    let log = std::fs::File::create(&viewer_log).map_err(|e| format!("{}: {e}", viewer_log.display()))?;
-    let mut viewer =
-        viewer.stdout(Stdio::from(log)).stderr(Stdio::inherit()).spawn().map_err(|e| format!("lamina-viewer: {e}"))?;
+    let mut viewer = viewer
+        .stdout(Stdio::from(file(&viewer_log)?))
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("lamina-viewer: {e}"))?;
+
     let report = out.join("core_report.json");
     let mut core = Command::new(std::env::current_exe().map_err(|e| e.to_string())?);
     core.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &seconds.to_string(), "--report"]).arg(&report);
     if let Some(s) = scene {
         core.arg("--scene").arg(s);
     }
+    let core_log = out.join("core.log");
+    let core = core
+        .stdout(Stdio::from(file(&core_log)?))
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("lamina run: {e}"))?;
+
+    // Haptics joins once the core is up (it renders zero force until the first feedback).
+    let haptics_report = out.join("haptics_report.json");
+    let haptics_log = out.join("haptics.log");
+    let haptics = match origin {
+        Some(o) => {
+            let trajectory = out.join("demo_press_pull.csv");
+            std::fs::write(&trajectory, DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
+            std::thread::sleep(std::time::Duration::from_millis(600));
+            let mut h = Command::new(sibling("lamina-haptics")?);
+            h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
+                .arg("--device")
+                .arg(format!("scripted:{}", trajectory.display()))
+                .args(["--origin", &format!("{},{},{}", o[0], o[1], o[2])])
+                .args(["--seconds", &format!("{}", (seconds - 0.8).max(0.5))])
+                .arg("--report")
+                .arg(&haptics_report)
+                .arg("--trace-csv")
+                .arg(out.join("haptics_trace.csv"));
+            Some(
+                h.stdout(Stdio::from(file(&haptics_log)?))
+                    .stderr(Stdio::from(file(&out.join("haptics_events.log"))?))
+                    .spawn()
+                    .map_err(|e| format!("lamina-haptics: {e}"))?,
+            )
+        }
+        None => None,
+    };
     println!(
-        "lamina demo: core and viewer ({}) as separate processes on prefix '{prefix}' for {seconds} s",
+        "lamina demo: core, haptics ({}) and viewer ({}) as separate processes on prefix '{prefix}' for {seconds} s",
+        if haptics.is_some() {
+            "scripted device pressing and pulling the skin"
+        } else {
+            "off: the scene has no haptics tool"
+        },
         if headless { "headless, no display found" } else { "window" }
     );
-    let core_out = core.output().map_err(|e| format!("lamina run: {e}"))?;
+    let core_status = core.wait_with_output().map_err(|e| format!("lamina run: {e}"))?.status;
+    let haptics_status = match haptics {
+        Some(h) => Some(h.wait_with_output().map_err(|e| format!("lamina-haptics: {e}"))?.status),
+        None => None,
+    };
     // The viewer stops after its frame count or when told.
     let _ = Command::new("kill").args(["-TERM", &viewer.id().to_string()]).status();
     let _ = viewer.wait();
-    println!("\n== core (lamina run)\n{}", String::from_utf8_lossy(&core_out.stdout));
+
+    println!("\n== core (lamina run)\n{}", std::fs::read_to_string(&core_log).unwrap_or_default());
+    if haptics_status.is_some() {
+        println!("== haptics (lamina-haptics)\n{}", std::fs::read_to_string(&haptics_log).unwrap_or_default());
+    }
     println!("== viewer (lamina-viewer)");
     let text = std::fs::read_to_string(&viewer_log).unwrap_or_default();
     for line in text.lines().filter(|l| !l.starts_with("frame ")).take(40) {
@@ -58,14 +134,19 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     }
     let frames = std::fs::read_dir(&frames_dir).map(|d| d.count()).unwrap_or(0);
     println!(
-        "\n{frames} frames written to {}; core report {}; viewer log {}",
+        "\n{frames} frames written to {}\nreports: {} (core), {} (haptics); logs: {} {} {}",
         frames_dir.display(),
         report.display(),
+        haptics_report.display(),
+        core_log.display(),
+        haptics_log.display(),
         viewer_log.display()
     );
-    println!("(haptics with a scripted device joins the demo with issue 7)");
-    if !core_out.status.success() {
-        return Err(format!("the core exited with {}", core_out.status));
+    if !core_status.success() {
+        return Err(format!("the core exited with {core_status}"));
+    }
+    if let Some(s) = haptics_status.filter(|s| !s.success()) {
+        return Err(format!("the haptics process exited with {s} (see {})", haptics_log.display()));
     }
     Ok(())
 }

@@ -102,6 +102,12 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
             core_report = Some(json(&report)?);
         }
     }
+    // The haptics process against the real core: a scripted device pressing and pulling
+    // the skin, device loop at 4 kHz on the first CPU, the core on the last.
+    let haptics = match super::demo::haptics_origin(scene)? {
+        Some(origin) => Some(profile_haptics(scene, origin, seconds, out)?),
+        None => None,
+    };
     // The synthetic publisher at each node count.
     let probe = sibling("lamina-publish-probe")?;
     for (&n, mode) in sizes.iter().flat_map(|n| [(n, "poll"), (n, "block")]) {
@@ -179,9 +185,74 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
             pick("send", "p99_ns")
         );
     }
+    if let Some(h) = &haptics {
+        let us = |k: &str, q: &str| h["loop"][k][q].as_f64().unwrap_or(f64::NAN) / 1e3;
+        let l = &h["core_to_device_latency"];
+        let lu = |q: &str| l[q].as_f64().unwrap_or(f64::NAN) / 1e3;
+        println!(
+            "\nhaptics device loop ({}, {} Hz): ticks {}, misses {}, skipped periods {}; period p50 {:.1} us p99 {:.1} us \
+             p99.9 {:.1} us max {:.1} us; wake-up lateness p99 {:.1} us max {:.1} us; compute p99 {:.1} us",
+            h["device"].as_str().unwrap_or("?"),
+            h["rate_hz"],
+            h["loop"]["ticks"],
+            h["loop"]["misses"],
+            h["loop"]["skipped_periods"],
+            us("period", "p50_ns"),
+            us("period", "p99_ns"),
+            us("period", "p999_ns"),
+            us("period", "max_ns"),
+            us("lateness", "p99_ns"),
+            us("lateness", "max_ns"),
+            us("compute", "p99_ns"),
+        );
+        println!(
+            "core -> device latency (core publishes feedback -> force written on the device), {} messages: \
+             p50 {:.1} us p99 {:.1} us p99.9 {:.1} us max {:.1} us; max force {:.3} N",
+            l["count"],
+            lu("p50_ns"),
+            lu("p99_ns"),
+            lu("p999_ns"),
+            lu("max_ns"),
+            h["max_force_n"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
     plot(&out.join("latency_percentiles.png"), &rows)?;
     println!("\nreports, histograms (CSV) and latency_percentiles.png written to {}", out.display());
     Ok(())
+}
+
+/// Core plus `lamina-haptics` (scripted press and pull) for `seconds`; the haptics report.
+fn profile_haptics(
+    scene: Option<&Path>,
+    origin: [f64; 3],
+    seconds: f64,
+    out: &Path,
+) -> Result<serde_json::Value, String> {
+    let prefix = format!("profile_haptics_{}", std::process::id());
+    let mut cmd = Command::new(std::env::current_exe().map_err(|e| e.to_string())?);
+    cmd.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &(seconds + 1.0).to_string()]);
+    if let Some(s) = scene {
+        cmd.arg("--scene").arg(s);
+    }
+    let core = cmd.stdout(Stdio::null()).spawn().map_err(|e| format!("lamina run: {e}"))?;
+    std::thread::sleep(Duration::from_millis(600));
+    let trajectory = out.join("haptics_trajectory.csv");
+    std::fs::write(&trajectory, super::demo::DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
+    let report = out.join("haptics_report.json");
+    let h = Command::new(sibling("lamina-haptics")?)
+        .args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
+        .arg("--device")
+        .arg(format!("scripted:{}", trajectory.display()))
+        .args(["--origin", &format!("{},{},{}", origin[0], origin[1], origin[2])])
+        .arg("--report")
+        .arg(&report)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("lamina-haptics: {e}"))?;
+    wait(h, "lamina-haptics")?;
+    wait(core, "lamina run")?;
+    json(&report)
 }
 
 fn plot(path: &Path, rows: &[Row]) -> Result<(), String> {
