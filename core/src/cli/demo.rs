@@ -27,11 +27,17 @@ fn file(path: &Path) -> Result<std::fs::File, String> {
     std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// The haptics arguments for `scene`: the device origin of its haptics-driven tool.
-pub fn haptics_origin(scene: Option<&Path>) -> Result<Option<[f64; 3]>, String> {
+/// The `lamina-haptics` arguments for `scene`'s haptics-driven tool (device origin and tool
+/// radius, so the viewer draws the tool), or `None` when the scene has no such tool.
+pub fn haptics_args(scene: Option<&Path>) -> Result<Option<[String; 4]>, String> {
     let scene = super::run::load_scene(&scene.map(Path::to_path_buf))?;
     Ok(scene.tool.and_then(|t| match t.source {
-        lamina_core::scene::ToolSource::Haptics { device_origin, .. } => Some(device_origin),
+        lamina_core::scene::ToolSource::Haptics { device_origin: o, .. } => Some([
+            "--origin".into(),
+            format!("{},{},{}", o[0], o[1], o[2]),
+            "--tool-radius".into(),
+            t.radius.to_string(),
+        ]),
         lamina_core::scene::ToolSource::Scripted { .. } => None,
     }))
 }
@@ -46,7 +52,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| format!("{}: {e}", frames_dir.display()))?;
     let headless = std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
-    let origin = haptics_origin(scene)?;
+    let haptics_args = haptics_args(scene)?;
 
     // The viewer first: it waits for the core and must not miss its topology.
     let mut viewer = Command::new(sibling("lamina-viewer")?);
@@ -81,8 +87,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     // Haptics joins once the core is up (it renders zero force until the first feedback).
     let haptics_report = out.join("haptics_report.json");
     let haptics_log = out.join("haptics.log");
-    let haptics = match origin {
-        Some(o) => {
+    let haptics = match haptics_args {
+        Some(args) => {
             let trajectory = out.join("demo_press_pull.csv");
             std::fs::write(&trajectory, DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
             std::thread::sleep(std::time::Duration::from_millis(600));
@@ -90,7 +96,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
             h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
                 .arg("--device")
                 .arg(format!("scripted:{}", trajectory.display()))
-                .args(["--origin", &format!("{},{},{}", o[0], o[1], o[2])])
+                .args(&args)
                 .args(["--seconds", &format!("{}", (seconds - 0.8).max(0.5))])
                 .arg("--report")
                 .arg(&haptics_report)

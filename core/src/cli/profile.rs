@@ -104,8 +104,8 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
     }
     // The haptics process against the real core: a scripted device pressing and pulling
     // the skin, device loop at 4 kHz on the first CPU, the core on the last.
-    let haptics = match super::demo::haptics_origin(scene)? {
-        Some(origin) => Some(profile_haptics(scene, origin, seconds, out)?),
+    let haptics = match super::demo::haptics_args(scene)? {
+        Some(args) => Some(profile_haptics(scene, &args, seconds, out)?),
         None => None,
     };
     // The synthetic publisher at each node count.
@@ -224,7 +224,7 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
 /// Core plus `lamina-haptics` (scripted press and pull) for `seconds`; the haptics report.
 fn profile_haptics(
     scene: Option<&Path>,
-    origin: [f64; 3],
+    args: &[String],
     seconds: f64,
     out: &Path,
 ) -> Result<serde_json::Value, String> {
@@ -243,7 +243,7 @@ fn profile_haptics(
         .args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
         .arg("--device")
         .arg(format!("scripted:{}", trajectory.display()))
-        .args(["--origin", &format!("{},{},{}", origin[0], origin[1], origin[2])])
+        .args(args)
         .arg("--report")
         .arg(&report)
         .stdout(Stdio::null())
