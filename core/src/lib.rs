@@ -2,6 +2,7 @@
 //! and the yardstick benchmark. No I/O beyond reading scene files; nothing here knows of
 //! iceoryx2, windows or devices.
 
+pub mod fit;
 pub mod generator;
 pub mod io;
 pub mod law;

@@ -98,6 +98,25 @@ enum Command {
         #[arg(long, default_value = "out/profile")]
         out: PathBuf,
     },
+    /// Fits each layer's springs to measured tissue (virtual tensile test, bilinear
+    /// regression, simulated annealing), per grid size of the cylindrical limb.
+    Fit {
+        /// Folder with skin.toml, fat.toml and muscle.toml.
+        #[arg(long, default_value = "config/materials")]
+        materials: PathBuf,
+        /// Grid sizes of the limb to fit for, comma-separated WxH.
+        #[arg(long, default_value = "39x10")]
+        grid_sizes: String,
+        /// Grid whose fitted limb is written as XML (fitted too if not listed).
+        #[arg(long, default_value = "39x10")]
+        model_grid: String,
+        /// Seed of the annealing's random stream.
+        #[arg(long, default_value_t = 2008)]
+        seed: u64,
+        /// Output folder.
+        #[arg(long, default_value = "out/fit")]
+        out: PathBuf,
+    },
     /// Accuracy-versus-time and hard-case stability studies.
     Study {
         #[command(subcommand)]
@@ -198,6 +217,11 @@ fn run(cli: Cli) -> Result<(), String> {
             let report = lamina_mesh::inspect(&file).map_err(|e| e.to_string())?;
             println!("{report}");
             Ok(())
+        }
+        Command::Fit { materials, grid_sizes, model_grid, seed, out } => {
+            let grids = parse_list(&grid_sizes, "grid size", |g| cli::generate::parse_grid(g).ok())?;
+            let model_grid = cli::generate::parse_grid(&model_grid)?;
+            cli::fit::fit(&cli::fit::FitOptions { materials, grids, model_grid, seed, out })
         }
         Command::Demo { scene, seconds, out } => cli::demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {

@@ -3,6 +3,7 @@
 pub mod bench_effects;
 pub mod bench_yardstick;
 pub mod demo;
+pub mod fit;
 pub mod generate;
 pub mod haptic_link;
 pub mod machine;

@@ -1,0 +1,308 @@
+//! Fitting one layer: the objective ψ = Σ wᵢ ((pᵢ − qᵢ)/qᵢ)² between the macroscopic values
+//! `p` measured by the virtual tensile test (and the regression) and the tissue's targets
+//! `q`, minimised by simulated annealing over the layer's spring parameters.
+
+use super::anneal::{AnnealResult, AnnealSettings, AnnealStep, AnnealStop, anneal};
+use super::regression::{bilinear_regression, line_fit};
+use super::targets::{TargetLaw, TissueTargets};
+use super::tensile::{Specimen, TensileCurve, tensile_test};
+use crate::generator::SpringMaterial;
+
+/// How a layer is fitted (defaults in brackets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitSettings {
+    /// The annealing schedule.
+    pub anneal: AnnealSettings,
+    /// Load steps of each tensile test. [24]
+    pub loads: usize,
+    /// Annealing runs at most: a run that freezes above `psi_stop` is followed by another
+    /// from the best point so far (reheated to `T0` of that point, next seed). [4]
+    pub restarts: usize,
+    /// Correction steps from the first guess and after each annealing run: every parameter
+    /// scaled by (target / achieved)^γ of the value it mostly sets, γ = 0.8 halved whenever
+    /// a step does not improve ψ. [8]
+    pub polish_steps: usize,
+    /// Slab nodes along the pull. [6]
+    pub slab_nx: usize,
+    /// Slab nodes across. [3]
+    pub slab_nz: usize,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self { anneal: AnnealSettings::default(), loads: 24, slab_nx: 6, slab_nz: 3, restarts: 4, polish_steps: 8 }
+    }
+}
+
+/// The layer's geometry in the model being fitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LayerGeometry {
+    /// Grid spacing of the layer's springs, m.
+    pub spacing_m: f64,
+    /// Layer thickness, m.
+    pub thickness_m: f64,
+}
+
+/// One target and what the fitted layer achieves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Achieved {
+    /// Target name (`initial_modulus_pa`, ...).
+    pub name: &'static str,
+    /// Target value.
+    pub target: f64,
+    /// Value measured on the fitted layer.
+    pub achieved: f64,
+}
+
+impl Achieved {
+    /// Relative error, (achieved − target) / target.
+    pub fn error(&self) -> f64 {
+        (self.achieved - self.target) / self.target
+    }
+}
+
+/// One layer's fit.
+#[derive(Clone, Debug)]
+pub struct LayerFit {
+    /// Tissue name.
+    pub tissue: String,
+    /// The fitted springs.
+    pub material: SpringMaterial,
+    /// Targets against what the fitted springs achieve.
+    pub achieved: Vec<Achieved>,
+    /// ψ of the fitted springs.
+    pub psi: f64,
+    /// The annealing run (every evaluation).
+    pub anneal: AnnealResult,
+    /// Tensile curve of every evaluation, in order (empty curves where the test failed).
+    pub curves: Vec<TensileCurve>,
+    /// Tensile curve of the fitted springs.
+    pub best_curve: TensileCurve,
+    /// Macroscopic modulus of the slab with unit (1 N/m) linear springs, Pa: the scale
+    /// that seeds the search.
+    pub unit_modulus_pa: f64,
+}
+
+/// Why a layer could not be fitted.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LayerFitError {
+    /// The slab's tensile test failed with unit springs.
+    Specimen(String),
+    /// No parameters gave a usable curve.
+    NoCurve,
+}
+
+impl std::fmt::Display for LayerFitError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Specimen(e) => write!(f, "tensile specimen: {e}"),
+            Self::NoCurve => write!(f, "no parameters gave a usable tensile curve"),
+        }
+    }
+}
+
+impl std::error::Error for LayerFitError {}
+
+/// The spring law of parameter vector `p` for `targets`' kind of layer.
+pub fn material_of(targets: &TissueTargets, p: &[f64]) -> SpringMaterial {
+    match targets.law {
+        TargetLaw::Linear { .. } => SpringMaterial::Linear { stiffness: p[0] },
+        TargetLaw::Bilinear { .. } => {
+            SpringMaterial::Bilinear { k1: p[0], k2: p[1], turn_strain: p[2], k_compression: p[0] }
+        }
+    }
+}
+
+/// Macroscopic values of a tensile curve in `targets`' order (modulus; or initial modulus,
+/// final modulus, turning strain).
+pub fn macroscopic(targets: &TissueTargets, curve: &TensileCurve) -> Option<Vec<f64>> {
+    match targets.law {
+        TargetLaw::Linear { .. } => line_fit(&curve.strain, &curve.stress_pa).map(|l| vec![l.slope]),
+        TargetLaw::Bilinear { .. } => bilinear_regression(&curve.strain, &curve.stress_pa)
+            .map(|b| vec![b.initial_modulus, b.final_modulus, b.turn_strain]),
+    }
+}
+
+/// ψ = Σ wᵢ ((pᵢ − qᵢ)/qᵢ)²: relative errors, so moduli in Pa and strains weigh alike.
+pub fn psi(targets: &TissueTargets, achieved: &[f64]) -> f64 {
+    targets.values().iter().zip(achieved).zip(&targets.weights).map(|(((_, q), p), w)| w * ((p - q) / q).powi(2)).sum()
+}
+
+/// The loads of a layer's tensile test, Pa: the target curve's stress at `loads` equally
+/// spaced strains up to `max_strain`, so both phases of a stiff bilinear tissue get points
+/// (equal force steps would put none in skin's toe region: its two moduli differ 70-fold).
+pub fn test_loads(targets: &TissueTargets, loads: usize) -> Vec<f64> {
+    (1..=loads).map(|i| targets.stress_at(targets.max_strain * i as f64 / loads as f64)).collect()
+}
+
+/// The tensile test of `material` on `spec` for `targets`.
+pub fn test_layer(
+    targets: &TissueTargets,
+    spec: &Specimen,
+    material: &SpringMaterial,
+    loads: usize,
+) -> Result<TensileCurve, super::tensile::TensileTestError> {
+    tensile_test(spec, material, &test_loads(targets, loads), 3.0 * targets.max_strain)
+}
+
+/// Fits the springs of a layer of `geometry` to `targets`; `on_step` sees every evaluation.
+pub fn fit_layer(
+    targets: &TissueTargets,
+    geometry: LayerGeometry,
+    settings: &FitSettings,
+    mut on_step: impl FnMut(&AnnealStep),
+) -> Result<LayerFit, LayerFitError> {
+    let spec = Specimen::layer_slab(geometry.spacing_m, geometry.thickness_m, settings.slab_nx, settings.slab_nz);
+    // Scale: the slab's modulus with unit linear springs at a small strain (about 1e-4).
+    let probe_stress = 1e-4 * geometry.spacing_m * spec.pulled.len() as f64 / spec.area_m2;
+    let unit = tensile_test(&spec, &SpringMaterial::Linear { stiffness: 1.0 }, &[probe_stress], 1.0)
+        .map_err(|e| LayerFitError::Specimen(e.to_string()))?;
+    let unit_modulus = unit.stress_pa[1] / unit.strain[1];
+    let (x0, lower, upper): (Vec<f64>, Vec<f64>, Vec<f64>) = match targets.law {
+        TargetLaw::Linear { modulus_pa } => {
+            let k = modulus_pa / unit_modulus;
+            (vec![k], vec![k / 30.0], vec![k * 30.0])
+        }
+        TargetLaw::Bilinear { initial_modulus_pa, final_modulus_pa, turn_strain } => {
+            let (k1, k2) = (initial_modulus_pa / unit_modulus, final_modulus_pa / unit_modulus);
+            (
+                vec![k1, k2, turn_strain],
+                vec![k1 / 30.0, k2 / 30.0, turn_strain / 5.0],
+                vec![k1 * 30.0, k2 * 30.0, (turn_strain * 3.0).min(0.95 * targets.max_strain)],
+            )
+        }
+    };
+    let mut curves: Vec<TensileCurve> = Vec::new();
+    let mut history: Vec<AnnealStep> = Vec::new();
+    // ψ and the macroscopic values at `p`, keeping the curve.
+    let evaluate = |p: &[f64], curves: &mut Vec<TensileCurve>| -> (f64, Option<Vec<f64>>) {
+        let curve = test_layer(targets, &spec, &material_of(targets, p), settings.loads).unwrap_or_default();
+        let values = macroscopic(targets, &curve);
+        curves.push(curve);
+        (values.as_ref().map_or(f64::INFINITY, |a| psi(targets, a)), values)
+    };
+    // Correction steps: each parameter scaled by target / achieved of the value it mostly
+    // sets (k1 the initial modulus, k2 the final one, TurnLen the turning strain).
+    let polish = |start: Vec<f64>,
+                  curves: &mut Vec<TensileCurve>,
+                  history: &mut Vec<AnnealStep>,
+                  on_step: &mut dyn FnMut(&AnnealStep)|
+     -> Vec<f64> {
+        let mut p = start;
+        let mut best: (f64, Vec<f64>, Option<Vec<f64>>) = (f64::INFINITY, p.clone(), None);
+        // Damped: p ← p · (q / achieved)^gamma from the best point so far; gamma halves
+        // whenever a step does not improve ψ.
+        let mut gamma = 0.8;
+        for _ in 0..settings.polish_steps {
+            let (value, achieved) = evaluate(&p, curves);
+            let step = AnnealStep {
+                evaluation: history.len(),
+                temperature: 0.0,
+                params: p.clone(),
+                psi: value,
+                accepted: true,
+            };
+            on_step(&step);
+            history.push(step);
+            if value < best.0 {
+                best = (value, p.clone(), achieved);
+            } else {
+                gamma *= 0.5;
+            }
+            if best.0 < settings.anneal.psi_stop {
+                break;
+            }
+            let Some(a) = &best.2 else { break };
+            p = best
+                .1
+                .iter()
+                .zip(targets.values())
+                .zip(a)
+                .enumerate()
+                .map(|(i, ((v, (_, q)), got))| (v * (q / got).powf(gamma)).clamp(lower[i], upper[i]))
+                .collect();
+        }
+        best.1
+    };
+    // Correction steps from the scaled guess; while ψ is above the stop, anneal from the
+    // best point (reheated, next seed), each run followed by correction steps. Annealing
+    // first was tried: on skin it settles in a local minimum (k1 ≈ 120 N/m, the regression's
+    // turning point one load too early) that the corrections then cannot leave.
+    let mut best = polish(x0.clone(), &mut curves, &mut history, &mut on_step);
+    let mut best_psi = history.iter().map(|h| h.psi).fold(f64::INFINITY, f64::min);
+    let mut stop = AnnealStop::Converged;
+    for run in 0..settings.restarts {
+        if best_psi < settings.anneal.psi_stop {
+            break;
+        }
+        let anneal_settings = AnnealSettings { seed: settings.anneal.seed.wrapping_add(run as u64), ..settings.anneal };
+        let offset = history.len();
+        let this = anneal(
+            &best,
+            &lower,
+            &upper,
+            &anneal_settings,
+            |p| evaluate(p, &mut curves).0,
+            |step| {
+                let mut s = step.clone();
+                s.evaluation += offset;
+                on_step(&s);
+            },
+        );
+        history.extend(this.history.into_iter().map(|mut s| {
+            s.evaluation += offset;
+            s
+        }));
+        stop = this.stop;
+        let polished = polish(this.best, &mut curves, &mut history, &mut on_step);
+        let polished_psi = history.last().map_or(f64::INFINITY, |h| h.psi);
+        let candidates = [(this.best_psi, None), (polished_psi, Some(polished))];
+        for (value, p) in candidates {
+            if value < best_psi {
+                best_psi = value;
+                if let Some(p) = p {
+                    best = p;
+                }
+            }
+        }
+        // The anneal's own best is in the history; take the overall best point.
+        if let Some(h) = history.iter().min_by(|a, b| a.psi.total_cmp(&b.psi)) {
+            best = h.params.clone();
+            best_psi = h.psi;
+        }
+    }
+    if best_psi < settings.anneal.psi_stop {
+        stop = AnnealStop::Converged;
+    }
+    let result: Option<AnnealResult> = Some(AnnealResult { best, best_psi, history, stop });
+    let result = result.ok_or(LayerFitError::NoCurve)?;
+    if !result.best_psi.is_finite() {
+        return Err(LayerFitError::NoCurve);
+    }
+    let material = material_of(targets, &result.best);
+    let best_curve = test_layer(targets, &spec, &material, settings.loads).map_err(|_| LayerFitError::NoCurve)?;
+    let values = macroscopic(targets, &best_curve).ok_or(LayerFitError::NoCurve)?;
+    let achieved = targets
+        .values()
+        .iter()
+        .zip(&values)
+        .map(|((name, target), achieved)| Achieved { name, target: *target, achieved: *achieved })
+        .collect();
+    Ok(LayerFit {
+        tissue: targets.name.clone(),
+        material,
+        achieved,
+        psi: result.best_psi,
+        anneal: result,
+        curves,
+        best_curve,
+        unit_modulus_pa: unit_modulus,
+    })
+}
+
+impl LayerFit {
+    /// Whether the annealing met its ψ target.
+    pub fn converged(&self) -> bool {
+        self.anneal.stop == AnnealStop::Converged
+    }
+}

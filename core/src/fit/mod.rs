@@ -1,0 +1,25 @@
+//! Material fitting (the paper's "Analysis of macroscopic behavior", DESIGN.md §5): the
+//! springs of each layer are chosen so that the layer's macroscopic stress-strain curve
+//! matches measured tissue.
+//!
+//! 1. [`targets`]: a tissue's measured values with their sources (`config/materials/`).
+//! 2. [`tensile`]: the virtual tensile test, a slab of the layer's lattice held at one end
+//!    and pulled by increasing loads, each solved to static equilibrium (Newton, residual
+//!    stop).
+//! 3. [`regression`]: the paper's bilinear regression (every point tried as turning point).
+//! 4. [`anneal`]: simulated annealing with a documented schedule and seed.
+//! 5. [`layer_fit`]: the objective ψ and one layer's fit, every evaluation's curve kept.
+
+pub mod anneal;
+pub mod layer_fit;
+pub mod regression;
+pub mod targets;
+pub mod tensile;
+
+pub use anneal::{AnnealResult, AnnealSettings, AnnealStep, AnnealStop, anneal};
+pub use layer_fit::{
+    Achieved, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of, psi,
+};
+pub use regression::{BilinearFit, LineFit, bilinear_regression, line_fit};
+pub use targets::{TargetLaw, TargetsLoadError, TissueTargets};
+pub use tensile::{Specimen, TensileCurve, TensileTestError, tensile_test};
