@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
-use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice, ScriptedDevice, Trajectory};
+use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
 use lamina_bridge::haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
@@ -117,8 +117,8 @@ fn open_scripted(path: &Path, args: &str) -> Result<(Box<dyn HapticDevice>, Opti
     Ok((Box::new(device), Some(duration)))
 }
 
-fn open_plugin(path: &Path, _args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
-    Err(DeviceError::Disconnected { detail: format!("{}: plugins are not built in yet", path.display()) })
+fn open_plugin(path: &Path, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    Ok((Box::new(PluginDevice::load(path, args)?), None))
 }
 
 fn us(ns: u64) -> f64 {

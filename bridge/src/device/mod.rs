@@ -39,10 +39,12 @@
 
 mod error;
 mod null;
+mod plugin;
 mod scripted;
 
 pub use error::DeviceError;
 pub use null::NullDevice;
+pub use plugin::{DEVICE_ABI_VERSION, PluginDevice};
 pub use scripted::{ScriptedDevice, Trajectory, TrajectoryPoint};
 
 /// What a device is and what it can safely do.

@@ -1,0 +1,110 @@
+/*
+ * sim_device.c: a simulated haptic device implementing lamina_device.h, used by Lamina's
+ * tests (and as a template for a vendor wrapper).
+ *
+ * The handle is a point mass (0.1 kg) on a spring to the workspace centre (50 N/m, damping
+ * 2 N s/m): each lamina_device_read advances it 1 ms under the force last written, so a
+ * force written moves the handle the way a hand-held stylus would move.
+ *
+ * Arguments (comma-separated): "disconnect_after=N" makes read return
+ * LAMINA_DEVICE_DISCONNECTED after N reads; "fail_open" makes open fail;
+ * "nan_after=N" reports a NaN position after N reads.
+ * Compile-time variants for the ABI tests: -DLAMINA_SIM_BAD_ABI (reports ABI 2) and
+ * -DLAMINA_SIM_NO_CLOSE (leaves lamina_device_close out).
+ */
+#include "lamina_device.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SIM_MASS 0.1
+#define SIM_SPRING 50.0
+#define SIM_DAMPING 2.0
+#define SIM_DT 0.001
+
+typedef struct SimDevice {
+    double x[3], v[3], f[3];
+    long reads, disconnect_after, nan_after;
+    char error[128];
+} SimDevice;
+
+static char open_error[128] = "no error";
+
+uint32_t lamina_device_abi_version(void) {
+#ifdef LAMINA_SIM_BAD_ABI
+    return 2u;
+#else
+    return LAMINA_DEVICE_ABI_VERSION;
+#endif
+}
+
+static long arg_value(const char *args, const char *key) {
+    const char *p = strstr(args, key);
+    if (!p) return -1;
+    return strtol(p + strlen(key), NULL, 10);
+}
+
+void *lamina_device_open(const char *args, LaminaDeviceInfo *info_out) {
+    if (strstr(args, "fail_open")) {
+        strcpy(open_error, "simulated device: no device on the USB bus (fail_open)");
+        return NULL;
+    }
+    SimDevice *d = calloc(1, sizeof *d);
+    if (!d) {
+        strcpy(open_error, "simulated device: out of memory");
+        return NULL;
+    }
+    d->disconnect_after = arg_value(args, "disconnect_after=");
+    d->nan_after = arg_value(args, "nan_after=");
+    strcpy(d->error, "no error");
+    memset(info_out, 0, sizeof *info_out);
+    strcpy(info_out->name, "lamina simulated device");
+    info_out->max_force_n = 8.0;
+    info_out->max_stiffness_n_per_m = 2500.0;
+    info_out->max_damping_n_s_per_m = 15.0;
+    info_out->workspace_radius_m = 0.075;
+    return d;
+}
+
+int lamina_device_read(void *device, LaminaDeviceState *out) {
+    SimDevice *d = device;
+    d->reads++;
+    if (d->disconnect_after >= 0 && d->reads > d->disconnect_after) {
+        strcpy(d->error, "simulated device: cable pulled (disconnect_after)");
+        return LAMINA_DEVICE_DISCONNECTED;
+    }
+    for (int c = 0; c < 3; c++) {
+        double a = (d->f[c] - SIM_SPRING * d->x[c] - SIM_DAMPING * d->v[c]) / SIM_MASS;
+        d->v[c] += SIM_DT * a;
+        d->x[c] += SIM_DT * d->v[c];
+        out->position_m[c] = d->x[c];
+    }
+    if (d->nan_after >= 0 && d->reads > d->nan_after) out->position_m[0] = NAN;
+    out->orientation_xyzw[0] = 0.0;
+    out->orientation_xyzw[1] = 0.0;
+    out->orientation_xyzw[2] = 0.0;
+    out->orientation_xyzw[3] = 1.0;
+    out->buttons = 0;
+    out->reserved = 0;
+    return LAMINA_DEVICE_OK;
+}
+
+int lamina_device_write_force(void *device, const double force_n[3]) {
+    SimDevice *d = device;
+    if (d->disconnect_after >= 0 && d->reads > d->disconnect_after) {
+        strcpy(d->error, "simulated device: cable pulled (disconnect_after)");
+        return LAMINA_DEVICE_DISCONNECTED;
+    }
+    for (int c = 0; c < 3; c++) d->f[c] = force_n[c];
+    return LAMINA_DEVICE_OK;
+}
+
+const char *lamina_device_last_error(void *device) {
+    if (!device) return open_error;
+    return ((SimDevice *)device)->error;
+}
+
+#ifndef LAMINA_SIM_NO_CLOSE
+void lamina_device_close(void *device) { free(device); }
+#endif
