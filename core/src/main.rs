@@ -64,6 +64,9 @@ enum Command {
         /// Also write the model as VTK (.vtu) for ParaView.
         #[arg(long)]
         vtu: Option<PathBuf>,
+        /// Generate the model of this anatomy scene (segmented surfaces) instead.
+        #[arg(long)]
+        scene: Option<PathBuf>,
     },
     /// Inspect a surface mesh (STL or OBJ): counts, closedness, defects, volume, area, bounds.
     Inspect {
@@ -228,9 +231,11 @@ fn run(cli: Cli) -> Result<(), String> {
             let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
             cli::profile::profile(scene.as_deref(), seconds, &sizes, &out)
         }
-        Command::Generate { table3, cylinder, length, out, vtu } => {
+        Command::Generate { table3, cylinder, length, out, vtu, scene } => {
             if table3 {
                 cli::generate::table3()
+            } else if let Some(scene) = scene {
+                cli::generate::anatomy(&scene, &out, vtu.as_deref())
             } else {
                 cli::generate::cylinder(cli::generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
             }

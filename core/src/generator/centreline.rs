@@ -103,9 +103,11 @@ impl Centreline {
         for &s in params {
             let tangent = self.tangent_at(s);
             let seed = previous.unwrap_or_else(|| {
-                let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-                axes.sort_by(|a, b| dot(*a, tangent).abs().total_cmp(&dot(*b, tangent).abs()));
-                axes[0]
+                // The least aligned axis, preferring x, then y, on near ties (within 1e-9), so
+                // that round-off in a measured axis does not turn the frame by 90 degrees.
+                let axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+                let least = axes.iter().map(|a| dot(*a, tangent).abs()).fold(f64::INFINITY, f64::min);
+                *axes.iter().find(|a| dot(**a, tangent).abs() <= least + 1e-9).unwrap_or(&axes[0])
             });
             let projected = sub(seed, scale(tangent, dot(seed, tangent)));
             let normal = normalize(projected).unwrap_or_else(|| {

@@ -36,6 +36,7 @@
 //! # }
 //! ```
 
+mod anatomy;
 mod build;
 mod centreline;
 mod cylinder;
@@ -52,6 +53,7 @@ mod table3;
 mod topology;
 mod vec3;
 
+pub use anatomy::{AnatomyGenerateError, AnatomyReport, AnatomySpec, MeshBoundary, NestedBoundary, generate_anatomy};
 pub use build::{LimbSurfaces, Progress, STAGES, generate_layered};
 pub use centreline::{AxisFrame, Centreline};
 pub use cylinder::Cylinder;

@@ -42,6 +42,9 @@ pub enum ModelSource {
     },
     /// A model file (XML), path relative to the scene file.
     File(PathBuf),
+    /// Generated from segmented surfaces (paths relative to the scene file); see
+    /// [`crate::generator::generate_anatomy`].
+    Anatomy(Box<crate::generator::AnatomySpec>),
 }
 
 /// What the real-time loop does when a tick overruns.
@@ -176,6 +179,16 @@ enum RawModel {
     },
     File {
         path: PathBuf,
+    },
+    Anatomy {
+        skin: PathBuf,
+        fat_muscle: PathBuf,
+        bone: PathBuf,
+        z_range_mm: [f64; 2],
+        columns: u32,
+        rows: u32,
+        skin_thickness_mm: Option<f64>,
+        min_layer_mm: Option<f64>,
     },
 }
 
@@ -372,6 +385,44 @@ impl Scene {
                 let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
                 ModelSource::File(base.join(p))
             }
+            Some(RawModel::Anatomy {
+                skin,
+                fat_muscle,
+                bone,
+                z_range_mm,
+                columns,
+                rows,
+                skin_thickness_mm,
+                min_layer_mm,
+            }) => {
+                let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
+                let skin_thickness = skin_thickness_mm.unwrap_or(2.0) * 1e-3;
+                let min_layer = min_layer_mm.unwrap_or(1.0) * 1e-3;
+                let ok = z_range_mm.iter().all(|z| z.is_finite())
+                    && z_range_mm[0] < z_range_mm[1]
+                    && (3..=4096).contains(&columns)
+                    && (1..=4096).contains(&rows)
+                    && skin_thickness.is_finite()
+                    && skin_thickness > 0.0
+                    && min_layer.is_finite()
+                    && min_layer > 0.0;
+                if !ok {
+                    return Err(value_err(
+                        "model",
+                        "z_range_mm increasing, columns 3..=4096, rows 1..=4096, skin_thickness_mm and min_layer_mm positive",
+                    ));
+                }
+                ModelSource::Anatomy(Box::new(crate::generator::AnatomySpec {
+                    skin: base.join(skin),
+                    fat_muscle: base.join(fat_muscle),
+                    bone: base.join(bone),
+                    z_range: (z_range_mm[0] * 1e-3, z_range_mm[1] * 1e-3),
+                    grid: crate::generator::GridSize::new(columns, rows),
+                    skin_thickness,
+                    min_layer,
+                    materials: crate::generator::Materials::default(),
+                }))
+            }
         };
         let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
         let s = raw.solver;
@@ -559,6 +610,11 @@ impl Scene {
                 };
                 crate::generator::generate(&spec, &crate::generator::Materials::default())
                     .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?
+            }
+            ModelSource::Anatomy(spec) => {
+                crate::generator::generate_anatomy(spec, None)
+                    .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?
+                    .0
             }
             ModelSource::File(p) => crate::io::read_model(p)
                 .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?,
