@@ -142,10 +142,7 @@ impl TissueTargets {
     /// Parses targets text; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, TargetsLoadError> {
         let raw: RawTargets = toml::from_str(text).map_err(|e| {
-            let (line, column) = e.span().map_or((0, 0), |s| {
-                let before = &text[..s.start.min(text.len())];
-                (before.matches('\n').count() + 1, before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1)
-            });
+            let (line, column) = e.span().map_or((0, 0), |s| crate::scene::line_column(text, s.start));
             TargetsLoadError::Syntax { path: path.to_path_buf(), line, column, message: e.message().to_string() }
         })?;
         let value_err = |field: &str, message: &str| TargetsLoadError::Value {
