@@ -228,9 +228,22 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
     let core_pid = core.id();
     std::thread::sleep(Duration::from_millis(1000));
     let device = format!("scripted:{}", file.display());
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).unwrap();
+    let feedback = FeedbackSubscriber::create(&bridge).unwrap();
     let h = haptics(&prefix, &device, &dir, &["--seconds", "4.0"]).spawn().expect("starting lamina-haptics");
-    // Freeze the core mid-hold for half a second, then let it go on.
-    std::thread::sleep(Duration::from_millis(2500));
+    // Freeze the core mid-press for half a second, then let it go on. The moment is taken from
+    // the core's own feedback (the tool pressing with more than 0.5 N), not from a wall-clock
+    // guess: on a loaded machine the processes start late by an unknown amount.
+    let waited = std::time::Instant::now();
+    let mut pressing = false;
+    while !pressing && waited.elapsed() < Duration::from_secs(30) {
+        while let Some(s) = feedback.try_receive().unwrap() {
+            let f = s.message().force;
+            pressing |= f.iter().map(|c| c * c).sum::<f64>().sqrt() > 0.5;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    assert!(pressing, "the scripted press reached 0.5 N within 30 s");
     let stop_ns = lamina_bridge::now_ns();
     unsafe { libc::kill(core_pid as i32, libc::SIGSTOP) };
     std::thread::sleep(Duration::from_millis(500));
