@@ -201,6 +201,10 @@ enum BenchCommand {
         /// Leave out the scalar reference loop.
         #[arg(long)]
         no_reference: bool,
+        /// Also time every level with each spring's parameters streamed from memory (runs of
+        /// identical springs not sharing one entry): the layout without parameter sharing.
+        #[arg(long)]
+        streamed_params: bool,
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
@@ -254,7 +258,17 @@ fn run(cli: Cli) -> Result<(), String> {
             cli::run::run(&cli::run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv })
         }
         Command::Bench {
-            what: BenchCommand::Yardstick { sizes, threads, precision, simd, no_reference, json, batch_seconds },
+            what:
+                BenchCommand::Yardstick {
+                    sizes,
+                    threads,
+                    precision,
+                    simd,
+                    no_reference,
+                    streamed_params,
+                    json,
+                    batch_seconds,
+                },
         } => {
             let all = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
             let threads = match threads {
@@ -277,6 +291,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 })?,
                 levels,
                 reference: !no_reference,
+                streamed: streamed_params,
                 json,
                 batch: Duration::from_secs_f64(batch_seconds.max(0.01)),
             };

@@ -81,8 +81,8 @@ fn build<T: Real>(size: LatticeSize, imp: YardstickImpl, threads: usize) -> Box<
         YardstickImpl::Reference => {
             Box::new(ReferenceStepper::<T>::new(&model, yardstick::GRAVITY, yardstick::DT).expect("linear springs"))
         }
-        YardstickImpl::Lamina(level) => Box::new(
-            Simulation::<T>::new(&model, yardstick::lattice_params(threads, level), yardstick::lattice_effects())
+        YardstickImpl::Lamina(_) | YardstickImpl::LaminaStreamed(_) => Box::new(
+            Simulation::<T>::new(&model, yardstick::impl_params(imp, threads), yardstick::lattice_effects())
                 .expect("the yardstick model is valid"),
         ),
     }
@@ -124,9 +124,9 @@ fn checksum_of<T: Real>(imp: YardstickImpl, threads: usize) -> Checksum {
             }
             yardstick::checksum(&model, |i| r.x[i].map(|c| c.to_f64()))
         }
-        YardstickImpl::Lamina(level) => {
+        YardstickImpl::Lamina(_) | YardstickImpl::LaminaStreamed(_) => {
             let mut s =
-                Simulation::<T>::new(&model, yardstick::lattice_params(threads, level), yardstick::lattice_effects())
+                Simulation::<T>::new(&model, yardstick::impl_params(imp, threads), yardstick::lattice_effects())
                     .expect("valid");
             for _ in 0..1000 {
                 s.step();
@@ -151,7 +151,10 @@ pub fn checksum_row(precision: &'static str, imp: YardstickImpl, threads: usize)
     }
 }
 
-/// The implementations to time: the scalar reference, then Lamina at `levels`.
-pub fn implementations(levels: &[SimdLevel]) -> Vec<YardstickImpl> {
-    std::iter::once(YardstickImpl::Reference).chain(levels.iter().map(|&l| YardstickImpl::Lamina(l))).collect()
+/// The implementations to time: the scalar reference, then Lamina at `levels`, then (when
+/// `streamed`) Lamina at `levels` with per-spring parameter streams.
+pub fn implementations(levels: &[SimdLevel], streamed: bool) -> Vec<YardstickImpl> {
+    let shared = levels.iter().map(|&l| YardstickImpl::Lamina(l));
+    let streamed = levels.iter().filter(|_| streamed).map(|&l| YardstickImpl::LaminaStreamed(l));
+    std::iter::once(YardstickImpl::Reference).chain(shared).chain(streamed).collect()
 }

@@ -15,6 +15,8 @@ pub struct BenchOptions {
     pub precisions: Vec<&'static str>,
     pub levels: Vec<SimdLevel>,
     pub reference: bool,
+    /// Also time every level with per-spring parameter streams (no shared run entries).
+    pub streamed: bool,
     pub json: bool,
     pub batch: Duration,
 }
@@ -27,13 +29,13 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
         println!("yardstick scene (shared/bench/lattice-scene.md), symplectic Euler dt = 1e-4 s");
         println!("machine: {machine}");
         println!(
-            "{:<7} {:>9} {:>10} {:<5} {:<18} {:>3} {:>10} {:>9} {:>10}",
+            "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10} {:>9} {:>10}",
             "size", "nodes", "springs", "prec", "implementation", "thr", "ms/step", "ns/spr-st", "Mspring/s"
         );
     }
     for &size in &opts.sizes {
         for &precision in &opts.precisions {
-            let mut imps = implementations(&opts.levels);
+            let mut imps = implementations(&opts.levels, opts.streamed);
             if !opts.reference {
                 imps.remove(0);
             }
@@ -44,7 +46,7 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
                     let row = time_config(size, precision, imp, threads, opts.batch);
                     if !opts.json {
                         println!(
-                            "{:<7} {:>9} {:>10} {:<5} {:<18} {:>3} {:>10.3} {:>9.3} {:>10.1}",
+                            "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10.3} {:>9.3} {:>10.1}",
                             row.size,
                             row.nodes,
                             row.springs,

@@ -79,7 +79,14 @@ impl<T: Real> Dynamics<T> {
     pub fn new(model: &Model, params: &IntegrationParameters, effects: Effects) -> Self {
         let n = model.nodes.len();
         let threads = params.threads.max(1);
-        let pass = SpringPass::new(&model.springs, n, threads, params.simd, effects.spring_damping);
+        let pass = SpringPass::new(
+            &model.springs,
+            n,
+            threads,
+            params.simd,
+            effects.spring_damping,
+            params.share_run_parameters,
+        );
         let free = model
             .nodes
             .kind

@@ -92,6 +92,10 @@ pub struct IntegrationParameters {
     pub pin_workers: bool,
     /// Kernel instruction set. Default: the widest the CPU has.
     pub simd: SimdLevel,
+    /// Runs of springs with identical parameters read one shared entry instead of a
+    /// per-spring stream (bit-identical forces, less memory traffic). Default true; false
+    /// is for side-by-side benchmarks.
+    pub share_run_parameters: bool,
 }
 
 impl Default for IntegrationParameters {
@@ -109,6 +113,7 @@ impl Default for IntegrationParameters {
             threads: 1,
             pin_workers: false,
             simd: SimdLevel::detect(),
+            share_run_parameters: true,
         }
     }
 }

@@ -5,7 +5,7 @@
 //! Forces are *added* into a window of the force arrays that starts at node `lo`.
 
 use super::simd::SimdLevel;
-use super::spring_layout::{BilinearParams, LinearParams, Part, SpringBlock, SpringLayout};
+use super::spring_layout::{BilinearParams, LinearParams, NO_ENTRY, Part, Run, SpringBlock, SpringLayout};
 use crate::real::Real;
 
 /// Elements per inner chunk: forces of up to this many springs are staged on the stack
@@ -130,6 +130,103 @@ fn spring_force<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     [fs * ux, fs * uy, fs * uz]
 }
 
+/// How a run reads its parameters.
+const STREAMED: u8 = 0;
+/// One shared parameter entry for the whole run.
+const SHARED: u8 = 1;
+/// One shared entry, and a mask that zeroes the run's null springs.
+const SHARED_MASKED: u8 = 2;
+
+/// Adds the forces of one run's springs into the window. `params` is the run's parameter
+/// table (`MODE == STREAMED`: the block's per-spring table; else its shared table), `active` the run's mask (read only when `MODE == SHARED_MASKED`).
+#[inline(always)]
+fn accumulate_run<T: Real, L: KernelLaw<T>, const DAMP: bool, const MODE: u8>(
+    run: &Run,
+    params: &L,
+    active: &[u8],
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+    stage: &mut [[T; CHUNK]; 3],
+) {
+    let [x, y, z] = nodes.x;
+    let [vx, vy, vz] = nodes.v;
+    let lo = out.lo;
+    let [fx, fy, fz] = &mut out.f;
+    let [tx, ty, tz] = stage;
+    let offset = (run.b0 - run.a0) as usize;
+    // Sub-chunks no longer than the offset have disjoint first-node and second-node
+    // ranges: their forces go straight into the window. Shorter offsets stage forces.
+    let direct = offset >= DIRECT_MIN_OFFSET;
+    let step = if direct { (offset / DIRECT_MIN_OFFSET * DIRECT_MIN_OFFSET).min(CHUNK) } else { CHUNK };
+    let mut done = 0usize;
+    while done < run.len as usize {
+        let n = (run.len as usize - done).min(step);
+        let a = run.a0 as usize + done;
+        let b = run.b0 as usize + done;
+        let (xa, ya, za) = (&x[a..a + n], &y[a..a + n], &z[a..a + n]);
+        let (xb, yb, zb) = (&x[b..b + n], &y[b..b + n], &z[b..b + n]);
+        let (vxa, vya, vza) = (&vx[a..a + n], &vy[a..a + n], &vz[a..a + n]);
+        let (vxb, vyb, vzb) = (&vx[b..b + n], &vy[b..b + n], &vz[b..b + n]);
+        let chunk = if MODE == STREAMED {
+            params.chunk(run.first as usize + done, n)
+        } else {
+            params.chunk(run.shared as usize, 1)
+        };
+        let mask = if MODE == SHARED_MASKED { &active[done..done + n] } else { &active[..0] };
+        // A macro, not a closure: a closure may be left out of line, and then it is
+        // neither vectorised nor compiled for this function's target features.
+        macro_rules! force {
+            ($i:expr) => {{
+                let i = $i;
+                let (dvx, dvy, dvz) = if DAMP {
+                    (vxb[i] - vxa[i], vyb[i] - vya[i], vzb[i] - vza[i])
+                } else {
+                    (T::ZERO, T::ZERO, T::ZERO)
+                };
+                let p = if MODE == STREAMED { i } else { 0 };
+                let (dx, dy, dz) = (xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]);
+                let f = spring_force::<T, L, DAMP>(&chunk, p, dx, dy, dz, dvx, dvy, dvz);
+                // A null spring exerts +0, exactly as a streamed null spring (k = c = 0) does.
+                if MODE == SHARED_MASKED && mask[i] == 0 { [T::ZERO; 3] } else { f }
+            }};
+        }
+        let (wa, wb) = (a - lo, b - lo);
+        if direct {
+            let (fxa, fxb) = fx.split_at_mut(wb);
+            let (fya, fyb) = fy.split_at_mut(wb);
+            let (fza, fzb) = fz.split_at_mut(wb);
+            let (fxa, fya, fza) = (&mut fxa[wa..wa + n], &mut fya[wa..wa + n], &mut fza[wa..wa + n]);
+            let (fxb, fyb, fzb) = (&mut fxb[..n], &mut fyb[..n], &mut fzb[..n]);
+            for i in 0..n {
+                let f = force!(i);
+                fxa[i] += f[0];
+                fya[i] += f[1];
+                fza[i] += f[2];
+                fxb[i] -= f[0];
+                fyb[i] -= f[1];
+                fzb[i] -= f[2];
+            }
+        } else {
+            let (tx, ty, tz) = (&mut tx[..n], &mut ty[..n], &mut tz[..n]);
+            for i in 0..n {
+                let f = force!(i);
+                tx[i] = f[0];
+                ty[i] = f[1];
+                tz[i] = f[2];
+            }
+            for (dst, src) in [(&mut **fx, &*tx), (&mut **fy, &*ty), (&mut **fz, &*tz)] {
+                for (d, s) in dst[wa..wa + n].iter_mut().zip(src) {
+                    *d += *s;
+                }
+                for (d, s) in dst[wb..wb + n].iter_mut().zip(src) {
+                    *d -= *s;
+                }
+            }
+        }
+        done += n;
+    }
+}
+
 #[inline(always)]
 fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     block: &SpringBlock<L>,
@@ -137,79 +234,24 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     nodes: &NodeView<'_, T>,
     out: &mut ForceWindow<'_, T>,
 ) {
+    let mut stage = [[T::ZERO; CHUNK]; 3];
+    for run in &block.runs[part.runs.clone()] {
+        if run.shared == NO_ENTRY {
+            accumulate_run::<T, L, DAMP, STREAMED>(run, &block.params, &[], nodes, out, &mut stage);
+            continue;
+        }
+        let shared = &block.shared;
+        if run.mask == NO_ENTRY {
+            accumulate_run::<T, L, DAMP, SHARED>(run, shared, &[], nodes, out, &mut stage);
+        } else {
+            let active = &block.active[run.mask as usize..run.mask as usize + run.len as usize];
+            accumulate_run::<T, L, DAMP, SHARED_MASKED>(run, shared, active, nodes, out, &mut stage);
+        }
+    }
     let [x, y, z] = nodes.x;
     let [vx, vy, vz] = nodes.v;
     let lo = out.lo;
     let [fx, fy, fz] = &mut out.f;
-    let mut tx = [T::ZERO; CHUNK];
-    let mut ty = [T::ZERO; CHUNK];
-    let mut tz = [T::ZERO; CHUNK];
-    for run in &block.runs[part.runs.clone()] {
-        let offset = (run.b0 - run.a0) as usize;
-        // Sub-chunks no longer than the offset have disjoint first-node and second-node
-        // ranges: their forces go straight into the window. Shorter offsets stage forces.
-        let direct = offset >= DIRECT_MIN_OFFSET;
-        let step = if direct { (offset / DIRECT_MIN_OFFSET * DIRECT_MIN_OFFSET).min(CHUNK) } else { CHUNK };
-        let mut done = 0usize;
-        while done < run.len as usize {
-            let n = (run.len as usize - done).min(step);
-            let a = run.a0 as usize + done;
-            let b = run.b0 as usize + done;
-            let s0 = run.first as usize + done;
-            let (xa, ya, za) = (&x[a..a + n], &y[a..a + n], &z[a..a + n]);
-            let (xb, yb, zb) = (&x[b..b + n], &y[b..b + n], &z[b..b + n]);
-            let (vxa, vya, vza) = (&vx[a..a + n], &vy[a..a + n], &vz[a..a + n]);
-            let (vxb, vyb, vzb) = (&vx[b..b + n], &vy[b..b + n], &vz[b..b + n]);
-            let params = block.params.chunk(s0, n);
-            // A macro, not a closure: a closure may be left out of line, and then it is
-            // neither vectorised nor compiled for this function's target features.
-            macro_rules! force {
-                ($i:expr) => {{
-                    let i = $i;
-                    let (dvx, dvy, dvz) = if DAMP {
-                        (vxb[i] - vxa[i], vyb[i] - vya[i], vzb[i] - vza[i])
-                    } else {
-                        (T::ZERO, T::ZERO, T::ZERO)
-                    };
-                    spring_force::<T, L, DAMP>(&params, i, xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i], dvx, dvy, dvz)
-                }};
-            }
-            let (wa, wb) = (a - lo, b - lo);
-            if direct {
-                let (fxa, fxb) = fx.split_at_mut(wb);
-                let (fya, fyb) = fy.split_at_mut(wb);
-                let (fza, fzb) = fz.split_at_mut(wb);
-                let (fxa, fya, fza) = (&mut fxa[wa..wa + n], &mut fya[wa..wa + n], &mut fza[wa..wa + n]);
-                let (fxb, fyb, fzb) = (&mut fxb[..n], &mut fyb[..n], &mut fzb[..n]);
-                for i in 0..n {
-                    let f = force!(i);
-                    fxa[i] += f[0];
-                    fya[i] += f[1];
-                    fza[i] += f[2];
-                    fxb[i] -= f[0];
-                    fyb[i] -= f[1];
-                    fzb[i] -= f[2];
-                }
-            } else {
-                let (tx, ty, tz) = (&mut tx[..n], &mut ty[..n], &mut tz[..n]);
-                for i in 0..n {
-                    let f = force!(i);
-                    tx[i] = f[0];
-                    ty[i] = f[1];
-                    tz[i] = f[2];
-                }
-                for (dst, src) in [(&mut **fx, &*tx), (&mut **fy, &*ty), (&mut **fz, &*tz)] {
-                    for (d, s) in dst[wa..wa + n].iter_mut().zip(src) {
-                        *d += *s;
-                    }
-                    for (d, s) in dst[wb..wb + n].iter_mut().zip(src) {
-                        *d -= *s;
-                    }
-                }
-            }
-            done += n;
-        }
-    }
     for i in part.loose.clone() {
         let (a, b) = (block.loose_a[i] as usize, block.loose_b[i] as usize);
         let s = block.loose_first + i;

@@ -30,7 +30,47 @@ pub struct Run {
     pub len: u32,
     /// Index of the first spring's parameters in the block's parameter arrays.
     pub first: u32,
+    /// When every real spring of the run has the same parameters: their index in
+    /// [`SpringBlock::shared`], so the kernel reads one entry instead of a stream. Else
+    /// [`NO_ENTRY`].
+    pub shared: u32,
+    /// For a shared-parameter run that bridges gaps: index in [`SpringBlock::active`] of
+    /// the run's first spring (1 = real spring, 0 = null spring). Else [`NO_ENTRY`].
+    pub mask: u32,
 }
+
+impl Run {
+    /// A run with its parameters streamed per spring.
+    pub fn streamed(a0: u32, b0: u32, len: u32, first: u32) -> Self {
+        Self { a0, b0, len, first, shared: NO_ENTRY, mask: NO_ENTRY }
+    }
+}
+
+/// Marks an absent index in [`Run::shared`] and [`Run::mask`].
+pub const NO_ENTRY: u32 = u32::MAX;
+
+/// Columns of per-spring parameters that runs can share.
+pub trait ParamTable: Default {
+    /// Whether entries `i` and `j` are bitwise equal in every column.
+    fn same(&self, i: usize, j: usize) -> bool;
+    /// Appends a copy of `other`'s entry `i`.
+    fn push_from(&mut self, other: &Self, i: usize);
+}
+
+macro_rules! param_table {
+    ($ty:ident: $($col:ident),+) => {
+        impl<T: Real> ParamTable for $ty<T> {
+            fn same(&self, i: usize, j: usize) -> bool {
+                true $(&& self.$col[i].to_f64().to_bits() == self.$col[j].to_f64().to_bits())+
+            }
+            fn push_from(&mut self, other: &Self, i: usize) {
+                $(self.$col.push(other.$col[i]);)+
+            }
+        }
+    };
+}
+param_table!(LinearParams: rest, k, c);
+param_table!(BilinearParams: rest, k1, k2, kc, turn, c);
 
 /// Per-spring parameters of linear springs, in streaming order.
 #[derive(Clone, Debug, Default)]
@@ -82,10 +122,18 @@ pub struct SpringBlock<P> {
     pub loose_first: usize,
     /// Parameters, one entry per spring: runs' springs first, then loose ones.
     pub params: P,
+    /// Parameters shared by every real spring of a run ([`Run::shared`]); a lattice of one
+    /// material per layer streams almost no parameters.
+    pub shared: P,
+    /// 1 for a real spring, 0 for a null spring, for shared-parameter runs with gaps
+    /// ([`Run::mask`]).
+    pub active: Vec<u8>,
     /// Canonical (model) index of each spring in `params` order.
     pub source: Vec<u32>,
     /// Per-thread parts.
     pub parts: Vec<Part>,
+    /// Number of entries in `shared`.
+    pub shared_len: usize,
 }
 
 impl<P> SpringBlock<P> {
@@ -209,7 +257,7 @@ fn find_runs(pairs: &[(u32, u32, u32)]) -> (Vec<RawRun>, Vec<u32>) {
             while cut < members.len() {
                 let len = (members.len() - cut).min(SEGMENT_LEN as usize);
                 let a = a0 + cut as u32;
-                runs.push((Run { a0: a, b0: a + off, len: len as u32, first: 0 }, members[cut..cut + len].to_vec()));
+                runs.push((Run::streamed(a, a + off, len as u32, 0), members[cut..cut + len].to_vec()));
                 cut += len;
             }
         }
@@ -247,9 +295,10 @@ fn cut_parts(runs: &[Run], loose_len: usize, threads: usize) -> Vec<Part> {
 
 /// Builds a block: `select` keeps the springs of this family; `push` appends a kept
 /// spring's parameters (`None`: a null spring).
-fn build_block<P: Default>(
+fn build_block<P: ParamTable>(
     springs: &SpringSet,
     threads: usize,
+    share: bool,
     select: impl Fn(&SpringLaw) -> bool,
     mut push: impl FnMut(&mut P, Option<usize>),
 ) -> SpringBlock<P> {
@@ -263,10 +312,24 @@ fn build_block<P: Default>(
     let (runs, loose) = find_runs(&pairs);
     let mut block = SpringBlock::<P>::default();
     for (mut run, members) in runs {
-        run.first = block.source.len() as u32;
-        for src in members {
+        let first = block.source.len();
+        run.first = first as u32;
+        for &src in &members {
             push(&mut block.params, (src != NULL_SPRING).then_some(src as usize));
             block.source.push(src);
+        }
+        let real: Vec<usize> = (0..members.len()).filter(|&i| members[i] != NULL_SPRING).map(|i| first + i).collect();
+        if let Some(&r0) = real.first()
+            && share
+            && real.iter().all(|&r| block.params.same(r0, r))
+        {
+            run.shared = block.shared_len as u32;
+            block.shared.push_from(&block.params, r0);
+            block.shared_len += 1;
+            if real.len() < members.len() {
+                run.mask = block.active.len() as u32;
+                block.active.extend(members.iter().map(|&m| u8::from(m != NULL_SPRING)));
+            }
         }
         block.runs.push(run);
     }
@@ -283,12 +346,19 @@ fn build_block<P: Default>(
 }
 
 impl<T: Real> SpringLayout<T> {
-    /// Streaming layout of `springs`, cut into `threads` parts.
+    /// Streaming layout of `springs`, cut into `threads` parts, runs of identical springs
+    /// sharing one parameter entry.
     pub fn new(springs: &SpringSet, threads: usize) -> Self {
+        Self::with_sharing(springs, threads, true)
+    }
+
+    /// As [`SpringLayout::new`]; with `share` false every run streams its parameters.
+    pub fn with_sharing(springs: &SpringSet, threads: usize, share: bool) -> Self {
         let r = |v: f64| T::from_f64(v);
         let linear = build_block::<LinearParams<T>>(
             springs,
             threads,
+            share,
             |law| matches!(law, SpringLaw::Linear { .. }),
             |p, i| {
                 let (rest, k, c) = match i.map(|i| (springs.rest_length[i], springs.law[i], springs.damping[i])) {
@@ -303,6 +373,7 @@ impl<T: Real> SpringLayout<T> {
         let bilinear = build_block::<BilinearParams<T>>(
             springs,
             threads,
+            share,
             |law| matches!(law, SpringLaw::Bilinear(_)),
             |p, i| {
                 let (rest, b, c) = match i.map(|i| (springs.rest_length[i], springs.law[i], springs.damping[i])) {
@@ -370,7 +441,9 @@ mod tests {
     #[test]
     fn layout_chain_forms_one_run_and_one_loose_works() {
         let layout = SpringLayout::<f64>::new(&chain(10), 1);
-        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 9, first: 0 }]);
+        // Nine springs of stiffness 1 in a run: one shared parameter entry, no mask.
+        assert_eq!(layout.linear.runs, vec![Run { shared: 0, ..Run::streamed(0, 1, 9, 0) }]);
+        assert_eq!(layout.linear.shared.k, vec![1.0]);
         assert_eq!(layout.linear.loose_a, vec![0]);
         assert_eq!(layout.linear.loose_b, vec![9]);
         assert_eq!(layout.linear.params.k[9], 2.0);
@@ -387,11 +460,25 @@ mod tests {
             s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
         }
         let layout = SpringLayout::<f64>::new(&s, 1);
-        assert_eq!(layout.linear.runs, vec![Run { a0: 0, b0: 1, len: 42, first: 0 }]);
+        assert_eq!(layout.linear.runs, vec![Run { shared: 0, mask: 0, ..Run::streamed(0, 1, 42, 0) }]);
+        let active: Vec<u8> = (0..42).map(|i| u8::from(!(20..22).contains(&i))).collect();
+        assert_eq!(layout.linear.active, active);
+        assert_eq!((layout.linear.shared.k.as_slice(), layout.linear.shared.c.as_slice()), (&[3.0][..], &[0.1][..]));
         assert_eq!(layout.null_springs(), 2);
         assert_eq!(&layout.linear.params.k[20..22], &[0.0, 0.0]);
         assert_eq!(&layout.linear.params.c[20..22], &[0.0, 0.0]);
         assert_eq!(layout.linear.source[20], NULL_SPRING);
+    }
+
+    #[test]
+    fn layout_run_of_differing_springs_streams_its_parameters_works() {
+        let mut s = SpringSet::default();
+        for a in 0u32..20 {
+            s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: if a == 7 { 4.0 } else { 3.0 } }, 0.1, 0);
+        }
+        let layout = SpringLayout::<f32>::new(&s, 1);
+        assert_eq!(layout.linear.runs, vec![Run::streamed(0, 1, 20, 0)]);
+        assert!(layout.linear.shared.k.is_empty() && layout.linear.active.is_empty());
     }
 
     #[test]

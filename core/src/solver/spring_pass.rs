@@ -34,10 +34,18 @@ pub struct SpringPass<T> {
 }
 
 impl<T: Real> SpringPass<T> {
-    /// Lays out `springs` of a model of `nodes` nodes for `threads` workers.
-    pub fn new(springs: &SpringSet, nodes: usize, threads: usize, level: SimdLevel, damping: bool) -> Self {
+    /// Lays out `springs` of a model of `nodes` nodes for `threads` workers; `share` lets
+    /// runs of identical springs share one parameter entry ([`SpringLayout::with_sharing`]).
+    pub fn new(
+        springs: &SpringSet,
+        nodes: usize,
+        threads: usize,
+        level: SimdLevel,
+        damping: bool,
+        share: bool,
+    ) -> Self {
         let threads = threads.max(1);
-        let layout = SpringLayout::<T>::new(springs, threads);
+        let layout = SpringLayout::<T>::with_sharing(springs, threads, share);
         let windows = (0..threads)
             .map(|t| {
                 let (lo, hi) = if threads == 1 {

@@ -9,4 +9,6 @@ mod run;
 
 pub use lattice::{LatticeSize, lattice_model, spring_count};
 pub use reference::ReferenceStepper;
-pub use run::{Checksum, DT, GRAVITY, YardstickImpl, checksum, lattice_effects, lattice_params, run_gravity};
+pub use run::{
+    Checksum, DT, GRAVITY, YardstickImpl, checksum, impl_params, lattice_effects, lattice_params, run_gravity,
+};

@@ -17,6 +17,9 @@ pub enum YardstickImpl {
     Reference,
     /// Lamina's solver with its kernels built for this instruction set.
     Lamina(SimdLevel),
+    /// The same, with every run streaming its parameters per spring (no shared entries):
+    /// the layout before parameter sharing, for side-by-side comparison.
+    LaminaStreamed(SimdLevel),
 }
 
 impl fmt::Display for YardstickImpl {
@@ -24,6 +27,18 @@ impl fmt::Display for YardstickImpl {
         match self {
             Self::Reference => f.write_str("scalar-reference"),
             Self::Lamina(level) => write!(f, "lamina-{level}"),
+            Self::LaminaStreamed(level) => write!(f, "lamina-{level}-streamed"),
+        }
+    }
+}
+
+/// Solver settings of `imp` (the reference gets Lamina's best level's settings).
+pub fn impl_params(imp: YardstickImpl, threads: usize) -> IntegrationParameters {
+    match imp {
+        YardstickImpl::Reference => lattice_params(threads, SimdLevel::detect()),
+        YardstickImpl::Lamina(level) => lattice_params(threads, level),
+        YardstickImpl::LaminaStreamed(level) => {
+            IntegrationParameters { share_run_parameters: false, ..lattice_params(threads, level) }
         }
     }
 }
