@@ -42,11 +42,15 @@ pub trait Real:
     fn min(self, other: Self) -> Self;
     /// Neither infinite nor NaN.
     fn is_finite(self) -> bool;
+    /// Lane block of this type in AVX registers (x86-64; elsewhere a plain array), used by
+    /// the spring kernel only after AVX2 was detected.
+    type AvxBlock: crate::solver::lane_block::Block<Self>;
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal) => {
+    ($t:ty, $name:literal, $avx:ty) => {
         impl Real for $t {
+            type AvxBlock = $avx;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const NAME: &'static str = $name;
@@ -78,5 +82,11 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, "f32");
-impl_real!(f64, "f64");
+#[cfg(target_arch = "x86_64")]
+impl_real!(f32, "f32", crate::solver::lane_block::AvxF32);
+#[cfg(target_arch = "x86_64")]
+impl_real!(f64, "f64", crate::solver::lane_block::AvxF64);
+#[cfg(not(target_arch = "x86_64"))]
+impl_real!(f32, "f32", crate::solver::lane_block::ScalarBlock<f32>);
+#[cfg(not(target_arch = "x86_64"))]
+impl_real!(f64, "f64", crate::solver::lane_block::ScalarBlock<f64>);

@@ -10,6 +10,7 @@ mod dynamics;
 mod effects;
 mod guard;
 mod implicit;
+pub mod lane_block;
 mod node_accel;
 mod params;
 mod simd;

@@ -1,20 +1,20 @@
 //! Spring force kernels over the streaming layout (see [`super::spring_layout`]).
 //!
-//! One kernel per spring law and damping choice, each a plain loop over a run that LLVM
-//! vectorises; [`accumulate_part`] dispatches to the build for the chosen [`SimdLevel`].
+//! The layout hands over *groups*: runs of springs with the same first nodes and different
+//! offsets (a lattice node's nine spring families). The kernel walks a group in lane blocks
+//! of [`LANES`] first nodes: it loads their positions and velocities once, computes the
+//! block's springs run by run, subtracts each run's forces from its second nodes, and sums
+//! the first nodes' forces in registers, adding them to the window once per block. The
+//! arithmetic is written once over [`Block`] and built three times ([`accumulate_part`]
+//! picks the build for the chosen [`SimdLevel`]): plain arrays for the baseline, AVX
+//! registers for AVX2 and for AVX-512 (whose 512-bit units gain nothing on a block of 8).
+//! Every build performs the same operations in the same order, so all give the same bits.
 //! Forces are *added* into a window of the force arrays that starts at node `lo`.
 
+use super::lane_block::{Block, LANES, ScalarBlock, max, min};
 use super::simd::SimdLevel;
-use super::spring_layout::{BilinearParams, LinearParams, NO_ENTRY, Part, Run, SpringBlock, SpringLayout};
+use super::spring_layout::{BilinearParams, LinearParams, NO_ENTRY, Part, Run, SpringBlock, SpringLayout, same_group};
 use crate::real::Real;
-
-/// Elements per inner chunk: forces of up to this many springs are staged on the stack
-/// before being added to their end nodes.
-const CHUNK: usize = super::spring_layout::SEGMENT_LEN as usize;
-
-/// Runs whose node offset is at least this (a multiple of every vector width) accumulate
-/// forces directly; shorter offsets stage them in a chunk buffer first.
-const DIRECT_MIN_OFFSET: usize = 16;
 
 /// Springs shorter than this (m) have no direction: they exert no force, and no NaN.
 pub const MIN_SPRING_LENGTH: f64 = 1e-12;
@@ -52,6 +52,17 @@ trait KernelLaw<T: Real>: Sync {
     fn damping(c: &Self::Chunk<'_>, i: usize) -> T;
     /// Elastic tension of spring `i` at `stretch`, N.
     fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T;
+    /// Parameters of a lane block: `[rest, damping, law...]`, per lane from the chunk's
+    /// first entries, or the chunk's first entry in every lane when `shared`.
+    fn block_params<B: Block<T>>(c: &Self::Chunk<'_>, shared: bool) -> [B; 6];
+    /// [`KernelLaw::tension`] of a lane block, lane for lane the same operations.
+    fn block_tension<B: Block<T>>(p: &[B; 6], stretch: B) -> B;
+}
+
+/// Lanes of `s` from its start, or `s[0]` in every lane.
+#[inline(always)]
+fn block_of<T: Real, B: Block<T>>(s: &[T], shared: bool) -> B {
+    if shared { B::splat(s[0]) } else { B::load(s, 0) }
 }
 
 impl<T: Real> KernelLaw<T> for LinearParams<T> {
@@ -71,6 +82,15 @@ impl<T: Real> KernelLaw<T> for LinearParams<T> {
     #[inline(always)]
     fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T {
         c.1[i] * stretch
+    }
+    #[inline(always)]
+    fn block_params<B: Block<T>>(c: &Self::Chunk<'_>, shared: bool) -> [B; 6] {
+        let k = block_of(c.1, shared);
+        [block_of(c.0, shared), block_of(c.2, shared), k, k, k, k]
+    }
+    #[inline(always)]
+    fn block_tension<B: Block<T>>(p: &[B; 6], stretch: B) -> B {
+        p[2].mul(stretch)
     }
 }
 
@@ -102,8 +122,20 @@ impl<T: Real> KernelLaw<T> for BilinearParams<T> {
     #[inline(always)]
     fn tension(c: &Self::Chunk<'_>, i: usize, stretch: T) -> T {
         let turn = c[4][i];
-        let pull = stretch.max(T::ZERO);
-        c[3][i] * stretch.min(T::ZERO) + c[1][i] * pull.min(turn) + c[2][i] * (pull - turn).max(T::ZERO)
+        let pull = max(stretch, T::ZERO);
+        c[3][i] * min(stretch, T::ZERO) + c[1][i] * min(pull, turn) + c[2][i] * max(pull - turn, T::ZERO)
+    }
+    #[inline(always)]
+    fn block_params<B: Block<T>>(c: &Self::Chunk<'_>, shared: bool) -> [B; 6] {
+        // [rest, damping, k1, k2, kc, turn]
+        [c[0], c[5], c[1], c[2], c[3], c[4]].map(|s| block_of(s, shared))
+    }
+    #[inline(always)]
+    fn block_tension<B: Block<T>>(p: &[B; 6], stretch: B) -> B {
+        let zero = B::splat(T::ZERO);
+        let pull = stretch.max(zero);
+        let compression = p[4].mul(stretch.min(zero));
+        compression.add(p[2].mul(pull.min(p[5]))).add(p[3].mul(pull.sub(p[5]).max(zero)))
     }
 }
 
@@ -119,134 +151,189 @@ fn spring_force<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     dvx: T,
     dvy: T,
     dvz: T,
+    keep: bool,
 ) -> [T; 3] {
     let length = (dx * dx + dy * dy + dz * dz).sqrt();
-    let inv = T::ONE / length.max(T::from_f64(MIN_SPRING_LENGTH));
+    let inv = T::ONE / max(length, T::from_f64(MIN_SPRING_LENGTH));
     let (ux, uy, uz) = (dx * inv, dy * inv, dz * inv);
     let mut fs = L::tension(chunk, i, length - L::rest(chunk, i));
     if DAMP {
         fs += L::damping(chunk, i) * (dvx * ux + dvy * uy + dvz * uz);
     }
+    // A null spring exerts +0 along its direction, as a streamed null spring (k = c = 0) does.
+    if !keep {
+        fs = T::ZERO;
+    }
     [fs * ux, fs * uy, fs * uz]
 }
 
-/// How a run reads its parameters.
-const STREAMED: u8 = 0;
-/// One shared parameter entry for the whole run.
-const SHARED: u8 = 1;
-/// One shared entry, and a mask that zeroes the run's null springs.
-const SHARED_MASKED: u8 = 2;
+/// Positions and velocities of the nodes from `first` on.
+struct Ends<'a, T> {
+    x: [&'a [T]; 3],
+    v: [&'a [T]; 3],
+}
 
-/// Adds the forces of one run's springs into the window. `params` is the run's parameter
-/// table (`MODE == STREAMED`: the block's per-spring table; else its shared table), `active` the run's mask (read only when `MODE == SHARED_MASKED`).
-#[inline(always)]
-fn accumulate_run<T: Real, L: KernelLaw<T>, const DAMP: bool, const MODE: u8>(
-    run: &Run,
-    params: &L,
-    active: &[u8],
-    nodes: &NodeView<'_, T>,
-    out: &mut ForceWindow<'_, T>,
-    stage: &mut [[T; CHUNK]; 3],
-) {
-    let [x, y, z] = nodes.x;
-    let [vx, vy, vz] = nodes.v;
-    let lo = out.lo;
-    let [fx, fy, fz] = &mut out.f;
-    let [tx, ty, tz] = stage;
-    let offset = (run.b0 - run.a0) as usize;
-    // Sub-chunks no longer than the offset have disjoint first-node and second-node
-    // ranges: their forces go straight into the window. Shorter offsets stage forces.
-    let direct = offset >= DIRECT_MIN_OFFSET;
-    let step = if direct { (offset / DIRECT_MIN_OFFSET * DIRECT_MIN_OFFSET).min(CHUNK) } else { CHUNK };
-    let mut done = 0usize;
-    while done < run.len as usize {
-        let n = (run.len as usize - done).min(step);
-        let a = run.a0 as usize + done;
-        let b = run.b0 as usize + done;
-        let (xa, ya, za) = (&x[a..a + n], &y[a..a + n], &z[a..a + n]);
-        let (xb, yb, zb) = (&x[b..b + n], &y[b..b + n], &z[b..b + n]);
-        let (vxa, vya, vza) = (&vx[a..a + n], &vy[a..a + n], &vz[a..a + n]);
-        let (vxb, vyb, vzb) = (&vx[b..b + n], &vy[b..b + n], &vz[b..b + n]);
-        let chunk = if MODE == STREAMED {
-            params.chunk(run.first as usize + done, n)
-        } else {
-            params.chunk(run.shared as usize, 1)
-        };
-        let mask = if MODE == SHARED_MASKED { &active[done..done + n] } else { &active[..0] };
-        // A macro, not a closure: a closure may be left out of line, and then it is
-        // neither vectorised nor compiled for this function's target features.
-        macro_rules! force {
-            ($i:expr) => {{
-                let i = $i;
-                let (dvx, dvy, dvz) = if DAMP {
-                    (vxb[i] - vxa[i], vyb[i] - vya[i], vzb[i] - vza[i])
-                } else {
-                    (T::ZERO, T::ZERO, T::ZERO)
-                };
-                let p = if MODE == STREAMED { i } else { 0 };
-                let (dx, dy, dz) = (xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]);
-                let f = spring_force::<T, L, DAMP>(&chunk, p, dx, dy, dz, dvx, dvy, dvz);
-                // A null spring exerts +0, exactly as a streamed null spring (k = c = 0) does.
-                if MODE == SHARED_MASKED && mask[i] == 0 { [T::ZERO; 3] } else { f }
-            }};
-        }
-        let (wa, wb) = (a - lo, b - lo);
-        if direct {
-            let (fxa, fxb) = fx.split_at_mut(wb);
-            let (fya, fyb) = fy.split_at_mut(wb);
-            let (fza, fzb) = fz.split_at_mut(wb);
-            let (fxa, fya, fza) = (&mut fxa[wa..wa + n], &mut fya[wa..wa + n], &mut fza[wa..wa + n]);
-            let (fxb, fyb, fzb) = (&mut fxb[..n], &mut fyb[..n], &mut fzb[..n]);
-            for i in 0..n {
-                let f = force!(i);
-                fxa[i] += f[0];
-                fya[i] += f[1];
-                fza[i] += f[2];
-                fxb[i] -= f[0];
-                fyb[i] -= f[1];
-                fzb[i] -= f[2];
-            }
-        } else {
-            let (tx, ty, tz) = (&mut tx[..n], &mut ty[..n], &mut tz[..n]);
-            for i in 0..n {
-                let f = force!(i);
-                tx[i] = f[0];
-                ty[i] = f[1];
-                tz[i] = f[2];
-            }
-            for (dst, src) in [(&mut **fx, &*tx), (&mut **fy, &*ty), (&mut **fz, &*tz)] {
-                for (d, s) in dst[wa..wa + n].iter_mut().zip(src) {
-                    *d += *s;
-                }
-                for (d, s) in dst[wb..wb + n].iter_mut().zip(src) {
-                    *d -= *s;
-                }
-            }
-        }
-        done += n;
+impl<'a, T> Ends<'a, T> {
+    #[inline(always)]
+    fn at(nodes: &NodeView<'a, T>, first: usize, n: usize) -> Self {
+        let r = first..first + n;
+        let [x, y, z] = nodes.x;
+        let [vx, vy, vz] = nodes.v;
+        Self { x: [&x[r.clone()], &y[r.clone()], &z[r.clone()]], v: [&vx[r.clone()], &vy[r.clone()], &vz[r]] }
     }
 }
 
+/// The first ends' forces (N) of a full lane block of one run; `keep` zeroes null springs.
+/// Lane for lane the operations of [`spring_force`].
 #[inline(always)]
-fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
+fn block_forces<T: Real, B: Block<T>, L: KernelLaw<T>, const DAMP: bool>(
+    params: &[B; 6],
+    keep: Option<&[u8]>,
+    a: &[B; 6],
+    b: &Ends<'_, T>,
+) -> [B; 3] {
+    let dx = B::load(b.x[0], 0).sub(a[0]);
+    let dy = B::load(b.x[1], 0).sub(a[1]);
+    let dz = B::load(b.x[2], 0).sub(a[2]);
+    let length = dx.mul(dx).add(dy.mul(dy)).add(dz.mul(dz)).sqrt();
+    let inv = B::splat(T::ONE).div(length.max(B::splat(T::from_f64(MIN_SPRING_LENGTH))));
+    let (ux, uy, uz) = (dx.mul(inv), dy.mul(inv), dz.mul(inv));
+    let mut fs = L::block_tension(params, length.sub(params[0]));
+    if DAMP {
+        let dvx = B::load(b.v[0], 0).sub(a[3]);
+        let dvy = B::load(b.v[1], 0).sub(a[4]);
+        let dvz = B::load(b.v[2], 0).sub(a[5]);
+        fs = fs.add(params[1].mul(dvx.mul(ux).add(dvy.mul(uy)).add(dvz.mul(uz))));
+    }
+    if let Some(keep) = keep {
+        fs = fs.keep(keep);
+    }
+    [fs.mul(ux), fs.mul(uy), fs.mul(uz)]
+}
+
+/// Where a run's parameters and null-spring mask are.
+#[inline(always)]
+fn run_params<'a, T: Real, L: KernelLaw<T>>(
+    block: &'a SpringBlock<L>,
+    run: &Run,
+    done: usize,
+    n: usize,
+) -> (L::Chunk<'a>, bool, Option<&'a [u8]>) {
+    if run.shared == NO_ENTRY {
+        return (block.params.chunk(run.first as usize + done, n), false, None);
+    }
+    let mask = (run.mask != NO_ENTRY).then(|| {
+        let m = run.mask as usize + done;
+        &block.active[m..m + n]
+    });
+    (block.shared.chunk(run.shared as usize, 1), true, mask)
+}
+
+/// One full lane block of a group: the [`LANES`] springs starting `done` into each of its
+/// runs. The first nodes' state is loaded once and their force summed in registers over
+/// the runs, then added to the window once; each run's second nodes get their forces as
+/// the run is visited.
+#[inline(always)]
+fn group_block<T: Real, B: Block<T>, L: KernelLaw<T>, const DAMP: bool>(
+    block: &SpringBlock<L>,
+    group: &[Run],
+    done: usize,
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+) {
+    let a = group[0].a0 as usize + done;
+    let ends_a = Ends::at(nodes, a, LANES);
+    let state_a: [B; 6] = [
+        B::load(ends_a.x[0], 0),
+        B::load(ends_a.x[1], 0),
+        B::load(ends_a.x[2], 0),
+        B::load(ends_a.v[0], 0),
+        B::load(ends_a.v[1], 0),
+        B::load(ends_a.v[2], 0),
+    ];
+    let mut acc = [B::splat(T::ZERO); 3];
+    for run in group {
+        let b = run.b0 as usize + done;
+        let (chunk, shared, keep) = run_params(block, run, done, LANES);
+        let params = L::block_params::<B>(&chunk, shared);
+        let f = block_forces::<T, B, L, DAMP>(&params, keep, &state_a, &Ends::at(nodes, b, LANES));
+        let wb = b - out.lo;
+        for c in 0..3 {
+            acc[c] = acc[c].add(f[c]);
+            B::load(out.f[c], wb).sub(f[c]).store(out.f[c], wb);
+        }
+    }
+    let wa = a - out.lo;
+    for c in 0..3 {
+        B::load(out.f[c], wa).add(acc[c]).store(out.f[c], wa);
+    }
+}
+
+/// A partial lane block of `n < LANES` springs, lane by lane with the operations and the
+/// order of [`group_block`] (so the same bits).
+#[inline(always)]
+fn group_tail<T: Real, L: KernelLaw<T>, const DAMP: bool>(
+    block: &SpringBlock<L>,
+    group: &[Run],
+    done: usize,
+    n: usize,
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+) {
+    let a = group[0].a0 as usize + done;
+    let ea = Ends::at(nodes, a, n);
+    let mut acc = [[T::ZERO; 3]; LANES];
+    for run in group {
+        let b = run.b0 as usize + done;
+        let eb = Ends::at(nodes, b, n);
+        let (chunk, shared, keep) = run_params(block, run, done, n);
+        let wb = b - out.lo;
+        for l in 0..n {
+            let d = [eb.x[0][l] - ea.x[0][l], eb.x[1][l] - ea.x[1][l], eb.x[2][l] - ea.x[2][l]];
+            let dv = [eb.v[0][l] - ea.v[0][l], eb.v[1][l] - ea.v[1][l], eb.v[2][l] - ea.v[2][l]];
+            let p = if shared { 0 } else { l };
+            let kept = keep.is_none_or(|k| k[l] != 0);
+            let f = spring_force::<T, L, DAMP>(&chunk, p, d[0], d[1], d[2], dv[0], dv[1], dv[2], kept);
+            for c in 0..3 {
+                acc[l][c] += f[c];
+                out.f[c][wb + l] -= f[c];
+            }
+        }
+    }
+    let wa = a - out.lo;
+    for (l, acc) in acc.iter().enumerate().take(n) {
+        for c in 0..3 {
+            out.f[c][wa + l] += acc[c];
+        }
+    }
+}
+
+/// Adds the forces of the runs of `part` (grouped) and of its loose springs.
+#[inline(always)]
+fn accumulate_block<T: Real, B: Block<T>, L: KernelLaw<T>, const DAMP: bool>(
     block: &SpringBlock<L>,
     part: &Part,
     nodes: &NodeView<'_, T>,
     out: &mut ForceWindow<'_, T>,
 ) {
-    let mut stage = [[T::ZERO; CHUNK]; 3];
-    for run in &block.runs[part.runs.clone()] {
-        if run.shared == NO_ENTRY {
-            accumulate_run::<T, L, DAMP, STREAMED>(run, &block.params, &[], nodes, out, &mut stage);
-            continue;
+    let runs = &block.runs[part.runs.clone()];
+    let mut start = 0;
+    while start < runs.len() {
+        let mut end = start + 1;
+        while end < runs.len() && same_group(&runs[start], &runs[end]) {
+            end += 1;
         }
-        let shared = &block.shared;
-        if run.mask == NO_ENTRY {
-            accumulate_run::<T, L, DAMP, SHARED>(run, shared, &[], nodes, out, &mut stage);
-        } else {
-            let active = &block.active[run.mask as usize..run.mask as usize + run.len as usize];
-            accumulate_run::<T, L, DAMP, SHARED_MASKED>(run, shared, active, nodes, out, &mut stage);
+        let group = &runs[start..end];
+        let len = group[0].len as usize;
+        let mut done = 0;
+        while done + LANES <= len {
+            group_block::<T, B, L, DAMP>(block, group, done, nodes, out);
+            done += LANES;
         }
+        if done < len {
+            group_tail::<T, L, DAMP>(block, group, done, len - done, nodes, out);
+        }
+        start = end;
     }
     let [x, y, z] = nodes.x;
     let [vx, vy, vz] = nodes.v;
@@ -255,10 +342,9 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     for i in part.loose.clone() {
         let (a, b) = (block.loose_a[i] as usize, block.loose_b[i] as usize);
         let s = block.loose_first + i;
-        let (dvx, dvy, dvz) =
-            if DAMP { (vx[b] - vx[a], vy[b] - vy[a], vz[b] - vz[a]) } else { (T::ZERO, T::ZERO, T::ZERO) };
+        let (dvx, dvy, dvz) = (vx[b] - vx[a], vy[b] - vy[a], vz[b] - vz[a]);
         let params = block.params.chunk(s, 1);
-        let f = spring_force::<T, L, DAMP>(&params, 0, x[b] - x[a], y[b] - y[a], z[b] - z[a], dvx, dvy, dvz);
+        let f = spring_force::<T, L, DAMP>(&params, 0, x[b] - x[a], y[b] - y[a], z[b] - z[a], dvx, dvy, dvz, true);
         fx[a - lo] += f[0];
         fy[a - lo] += f[1];
         fz[a - lo] += f[2];
@@ -270,7 +356,7 @@ fn accumulate_block<T: Real, L: KernelLaw<T>, const DAMP: bool>(
 
 /// Every law and damping variant of the kernel over part `t`, compiled for one level.
 #[inline(always)]
-fn accumulate_all<T: Real>(
+fn accumulate_all<T: Real, B: Block<T>>(
     layout: &SpringLayout<T>,
     t: usize,
     damp: bool,
@@ -279,16 +365,16 @@ fn accumulate_all<T: Real>(
 ) {
     if let Some(part) = layout.linear.parts.get(t) {
         if damp {
-            accumulate_block::<T, _, true>(&layout.linear, part, nodes, out);
+            accumulate_block::<T, B, _, true>(&layout.linear, part, nodes, out);
         } else {
-            accumulate_block::<T, _, false>(&layout.linear, part, nodes, out);
+            accumulate_block::<T, B, _, false>(&layout.linear, part, nodes, out);
         }
     }
     if let Some(part) = layout.bilinear.parts.get(t) {
         if damp {
-            accumulate_block::<T, _, true>(&layout.bilinear, part, nodes, out);
+            accumulate_block::<T, B, _, true>(&layout.bilinear, part, nodes, out);
         } else {
-            accumulate_block::<T, _, false>(&layout.bilinear, part, nodes, out);
+            accumulate_block::<T, B, _, false>(&layout.bilinear, part, nodes, out);
         }
     }
 }
@@ -302,7 +388,7 @@ fn accumulate_avx2<T: Real>(
     nodes: &NodeView<'_, T>,
     out: &mut ForceWindow<'_, T>,
 ) {
-    accumulate_all(layout, t, damp, nodes, out)
+    accumulate_all::<T, T::AvxBlock>(layout, t, damp, nodes, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -314,7 +400,7 @@ fn accumulate_avx512<T: Real>(
     nodes: &NodeView<'_, T>,
     out: &mut ForceWindow<'_, T>,
 ) {
-    accumulate_all(layout, t, damp, nodes, out)
+    accumulate_all::<T, T::AvxBlock>(layout, t, damp, nodes, out)
 }
 
 /// Adds the forces of thread part `t`'s springs (with dashpots when `damp`) into `out`.
@@ -336,6 +422,6 @@ pub fn accumulate_part<T: Real>(
         #[cfg(target_arch = "x86_64")]
         // SAFETY: clamp_to_cpu() returned Avx2 only if the CPU has avx2 and fma.
         SimdLevel::Avx2 => unsafe { accumulate_avx2(layout, t, damp, nodes, out) },
-        _ => accumulate_all(layout, t, damp, nodes, out),
+        _ => accumulate_all::<T, ScalarBlock<T>>(layout, t, damp, nodes, out),
     }
 }

@@ -185,9 +185,10 @@ pub const MAX_BRIDGED_GAP: u32 = 2;
 /// springs in a proportion that costs more than the longer runs save. Default 16.
 pub const BRIDGE_MIN_PIECE: usize = 16;
 
-/// Runs are cut into segments of at most this many springs (a multiple of every vector
-/// width) and the segments of all offsets are interleaved by first node, so one forward
-/// sweep keeps the touched nodes in cache. Default 128.
+/// Runs are cut at node indices that are multiples of this (a multiple of every vector
+/// width), the same for every offset, and sorted by first node, so the segments of all
+/// offsets over the same nodes form a *group* that the kernel sweeps together, loading the
+/// first nodes once. Default 128.
 pub const SEGMENT_LEN: u32 = 128;
 
 /// Marks a null spring in [`SpringBlock::source`].
@@ -253,18 +254,26 @@ fn find_runs(pairs: &[(u32, u32, u32)]) -> (Vec<RawRun>, Vec<u32>) {
                 members.extend(list[p.0..p.1].iter().map(|e| e.1));
             }
             let a0 = list[group[0].0].0;
+            // Cuts fall on multiples of SEGMENT_LEN in node index, the same for every
+            // offset, so runs of different offsets over the same nodes line up in groups.
             let mut cut = 0usize;
             while cut < members.len() {
-                let len = (members.len() - cut).min(SEGMENT_LEN as usize);
                 let a = a0 + cut as u32;
+                let to_boundary = (SEGMENT_LEN - a % SEGMENT_LEN) as usize;
+                let len = (members.len() - cut).min(to_boundary);
                 runs.push((Run::streamed(a, a + off, len as u32, 0), members[cut..cut + len].to_vec()));
                 cut += len;
             }
         }
     }
-    runs.sort_by_key(|(r, _)| (r.a0, r.b0));
+    runs.sort_by_key(|(r, _)| (r.a0, r.len, r.b0));
     loose.sort_unstable();
     (runs, loose.into_iter().map(|p| p.1).collect())
+}
+
+/// Whether two runs adjacent in storage order belong to one group (same first nodes).
+pub fn same_group(a: &Run, b: &Run) -> bool {
+    a.a0 == b.a0 && a.len == b.len
 }
 
 /// Cuts `runs` and `loose` into `threads` parts of about equal spring counts.
@@ -278,9 +287,15 @@ fn cut_parts(runs: &[Run], loose_len: usize, threads: usize) -> Vec<Part> {
     for t in 0..threads {
         let target = total * (t + 1) / threads;
         let mut run_end = run_start;
+        // Whole groups only (runs with the same first node and length): the kernel sweeps
+        // a group's runs together.
         while run_end < runs.len() && done + (runs[run_end].len as usize) / 2 < target {
             done += runs[run_end].len as usize;
             run_end += 1;
+            while run_end < runs.len() && same_group(&runs[run_end - 1], &runs[run_end]) {
+                done += runs[run_end].len as usize;
+                run_end += 1;
+            }
         }
         let loose_target = loose_len * (t + 1) / threads;
         let loose_end = if t + 1 == threads { loose_len } else { loose_target };

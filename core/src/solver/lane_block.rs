@@ -1,0 +1,332 @@
+//! Blocks of [`LANES`] values with the arithmetic the spring kernel needs, in two builds:
+//! plain arrays ([`ScalarBlock`], any CPU) and AVX registers ([`AvxF32`], [`AvxF64`], used
+//! only after [`super::SimdLevel`] detected AVX2).
+//!
+//! Every operation rounds exactly as its scalar counterpart (IEEE add, sub, mul, div, sqrt;
+//! no fused multiply-add), and [`max`]/[`min`] follow the x86 `maxps`/`minps` rule in both
+//! builds, so a block computed in registers has the same bits as the same block computed
+//! lane by lane.
+
+use crate::real::Real;
+
+/// Springs per lane block. The block, not the register, fixes the order in which forces
+/// are summed, so every instruction-set level gives the same bits. Default 8 (one AVX
+/// register of f32).
+pub const LANES: usize = 8;
+
+/// `a > b ? a : b`, the x86 `maxps` rule: `b` when either is NaN or both are zero.
+#[inline(always)]
+pub fn max<T: Real>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
+/// `a < b ? a : b`, the x86 `minps` rule: `b` when either is NaN or both are zero.
+#[inline(always)]
+pub fn min<T: Real>(a: T, b: T) -> T {
+    if a < b { a } else { b }
+}
+
+/// [`LANES`] values of `T` and the kernel's arithmetic on them.
+pub trait Block<T: Real>: Copy {
+    /// `s[i..i + LANES]`; panics if out of bounds.
+    fn load(s: &[T], i: usize) -> Self;
+    /// Every lane `v`.
+    fn splat(v: T) -> Self;
+    /// Writes the lanes to `s[i..i + LANES]`; panics if out of bounds.
+    fn store(self, s: &mut [T], i: usize);
+    /// Lane-wise sum.
+    fn add(self, o: Self) -> Self;
+    /// Lane-wise difference.
+    fn sub(self, o: Self) -> Self;
+    /// Lane-wise product.
+    fn mul(self, o: Self) -> Self;
+    /// Lane-wise quotient.
+    fn div(self, o: Self) -> Self;
+    /// Lane-wise square root.
+    fn sqrt(self) -> Self;
+    /// Lane-wise [`max`].
+    fn max(self, o: Self) -> Self;
+    /// Lane-wise [`min`].
+    fn min(self, o: Self) -> Self;
+    /// `+0` in the lanes where `keep` is 0.
+    fn keep(self, keep: &[u8]) -> Self;
+}
+
+/// A block as an array, computed lane by lane.
+#[derive(Clone, Copy)]
+pub struct ScalarBlock<T>([T; LANES]);
+
+impl<T: Real> ScalarBlock<T> {
+    #[inline(always)]
+    fn zip(self, o: Self, f: impl Fn(T, T) -> T) -> Self {
+        let mut r = self.0;
+        for l in 0..LANES {
+            r[l] = f(self.0[l], o.0[l]);
+        }
+        Self(r)
+    }
+}
+
+impl<T: Real> Block<T> for ScalarBlock<T> {
+    #[inline(always)]
+    fn load(s: &[T], i: usize) -> Self {
+        Self(s[i..i + LANES].try_into().expect("a lane block"))
+    }
+    #[inline(always)]
+    fn splat(v: T) -> Self {
+        Self([v; LANES])
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [T], i: usize) {
+        s[i..i + LANES].copy_from_slice(&self.0);
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        self.zip(o, |a, b| a + b)
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        self.zip(o, |a, b| a - b)
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        self.zip(o, |a, b| a * b)
+    }
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        self.zip(o, |a, b| a / b)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        self.zip(self, |a, _| a.sqrt())
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        self.zip(o, max)
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        self.zip(o, min)
+    }
+    #[inline(always)]
+    fn keep(self, keep: &[u8]) -> Self {
+        let mut r = self.0;
+        for l in 0..LANES {
+            if keep[l] == 0 {
+                r[l] = T::ZERO;
+            }
+        }
+        Self(r)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub use avx::{AvxF32, AvxF64};
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    //! AVX blocks. Their methods are `inline(always)` and only ever inlined into functions
+    //! compiled with AVX2 enabled, which the kernel calls only after detecting AVX2.
+    use super::{Block, LANES};
+    use std::arch::x86_64::*;
+
+    /// Eight f32 in one AVX register.
+    #[derive(Clone, Copy)]
+    pub struct AvxF32(__m256);
+
+    /// Eight f64 in two AVX registers.
+    #[derive(Clone, Copy)]
+    pub struct AvxF64(__m256d, __m256d);
+
+    /// Mask of the lanes to keep: all ones where `keep[l] != 0`.
+    #[inline(always)]
+    fn keep_mask(keep: &[u8]) -> [i64; LANES] {
+        let mut m = [0i64; LANES];
+        for l in 0..LANES {
+            m[l] = if keep[l] != 0 { -1 } else { 0 };
+        }
+        m
+    }
+
+    // SAFETY (every unsafe block below): the intrinsics need AVX, present whenever these
+    // types are used (see the module doc); loads and stores are bounds-checked first.
+    impl Block<f32> for AvxF32 {
+        #[inline(always)]
+        fn load(s: &[f32], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            Self(unsafe { _mm256_loadu_ps(s.as_ptr()) })
+        }
+        #[inline(always)]
+        fn splat(v: f32) -> Self {
+            Self(unsafe { _mm256_set1_ps(v) })
+        }
+        #[inline(always)]
+        fn store(self, s: &mut [f32], i: usize) {
+            let s = &mut s[i..i + LANES];
+            unsafe { _mm256_storeu_ps(s.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        fn add(self, o: Self) -> Self {
+            Self(unsafe { _mm256_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn sub(self, o: Self) -> Self {
+            Self(unsafe { _mm256_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn mul(self, o: Self) -> Self {
+            Self(unsafe { _mm256_mul_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn div(self, o: Self) -> Self {
+            Self(unsafe { _mm256_div_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Self {
+            Self(unsafe { _mm256_sqrt_ps(self.0) })
+        }
+        #[inline(always)]
+        fn max(self, o: Self) -> Self {
+            Self(unsafe { _mm256_max_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn min(self, o: Self) -> Self {
+            Self(unsafe { _mm256_min_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn keep(self, keep: &[u8]) -> Self {
+            let m = keep_mask(keep);
+            let mut m32 = [0i32; LANES];
+            for l in 0..LANES {
+                m32[l] = m[l] as i32;
+            }
+            unsafe {
+                let mask = _mm256_loadu_si256(m32.as_ptr().cast());
+                Self(_mm256_and_ps(self.0, _mm256_castsi256_ps(mask)))
+            }
+        }
+    }
+
+    impl Block<f64> for AvxF64 {
+        #[inline(always)]
+        fn load(s: &[f64], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            unsafe { Self(_mm256_loadu_pd(s.as_ptr()), _mm256_loadu_pd(s.as_ptr().add(4))) }
+        }
+        #[inline(always)]
+        fn splat(v: f64) -> Self {
+            unsafe { Self(_mm256_set1_pd(v), _mm256_set1_pd(v)) }
+        }
+        #[inline(always)]
+        fn store(self, s: &mut [f64], i: usize) {
+            let s = &mut s[i..i + LANES];
+            unsafe {
+                _mm256_storeu_pd(s.as_mut_ptr(), self.0);
+                _mm256_storeu_pd(s.as_mut_ptr().add(4), self.1);
+            }
+        }
+        #[inline(always)]
+        fn add(self, o: Self) -> Self {
+            unsafe { Self(_mm256_add_pd(self.0, o.0), _mm256_add_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn sub(self, o: Self) -> Self {
+            unsafe { Self(_mm256_sub_pd(self.0, o.0), _mm256_sub_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn mul(self, o: Self) -> Self {
+            unsafe { Self(_mm256_mul_pd(self.0, o.0), _mm256_mul_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn div(self, o: Self) -> Self {
+            unsafe { Self(_mm256_div_pd(self.0, o.0), _mm256_div_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Self {
+            unsafe { Self(_mm256_sqrt_pd(self.0), _mm256_sqrt_pd(self.1)) }
+        }
+        #[inline(always)]
+        fn max(self, o: Self) -> Self {
+            unsafe { Self(_mm256_max_pd(self.0, o.0), _mm256_max_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn min(self, o: Self) -> Self {
+            unsafe { Self(_mm256_min_pd(self.0, o.0), _mm256_min_pd(self.1, o.1)) }
+        }
+        #[inline(always)]
+        fn keep(self, keep: &[u8]) -> Self {
+            let m = keep_mask(keep);
+            unsafe {
+                let lo = _mm256_castsi256_pd(_mm256_loadu_si256(m.as_ptr().cast()));
+                let hi = _mm256_castsi256_pd(_mm256_loadu_si256(m.as_ptr().add(4).cast()));
+                Self(_mm256_and_pd(self.0, lo), _mm256_and_pd(self.1, hi))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Awkward lanes: NaN, ±0, tiny, huge, negative.
+    fn awkward<T: Real>() -> ([T; LANES], [T; LANES]) {
+        let a = [f64::NAN, -0.0, 0.0, 1e-30, 3.5, -2.0, 1e30, 7.25].map(T::from_f64);
+        let b = [1.0, 0.0, -0.0, 2e-30, f64::NAN, -2.0, 0.5, 7.25].map(T::from_f64);
+        (a, b)
+    }
+
+    #[inline(always)]
+    fn ops<T: Real, B: Block<T>>(a: &[T], b: &[T]) -> Vec<[T; LANES]> {
+        let (x, y) = (B::load(a, 0), B::load(b, 0));
+        let keep = [1u8, 0, 1, 0, 1, 1, 0, 1];
+        let results =
+            [x.add(y), x.sub(y), x.mul(y), x.div(y), x.sqrt(), x.max(y), x.min(y), x.keep(&keep), B::splat(a[4])];
+        results
+            .iter()
+            .map(|r| {
+                let mut out = [T::ZERO; LANES];
+                r.store(&mut out, 0);
+                out
+            })
+            .collect()
+    }
+
+    /// Bits of every lane; every NaN counts as one value (a NaN made by an operation has
+    /// the CPU's default sign and payload, a constant-folded one Rust's: either is caught
+    /// by the solver's guard, and no finite result depends on it).
+    fn bits<T: Real>(v: &[[T; LANES]]) -> Vec<u64> {
+        v.iter().flatten().map(|x| if x.to_f64().is_nan() { 1 } else { x.to_f64().to_bits() }).collect()
+    }
+
+    #[test]
+    fn scalar_block_max_min_follow_the_x86_rule_works() {
+        assert_eq!(max(f32::NAN, 1.0), 1.0);
+        assert!(max(1.0, f32::NAN).is_nan());
+        assert_eq!(max(-0.0f32, 0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(max(0.0f32, -0.0).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(min(f64::NAN, 1.0), 1.0);
+        assert_eq!(min(-0.0f64, 0.0).to_bits(), 0.0f64.to_bits());
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_blocks_match_scalar_blocks_bit_for_bit_works() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        }
+        #[target_feature(enable = "avx2")]
+        fn with_avx<T: Real, B: Block<T>>(a: &[T], b: &[T]) -> Vec<[T; LANES]> {
+            ops::<T, B>(a, b)
+        }
+        let (a, b) = awkward::<f32>();
+        // SAFETY: AVX2 was detected above.
+        let avx = unsafe { with_avx::<f32, AvxF32>(&a, &b) };
+        assert_eq!(bits(&avx), bits(&ops::<f32, ScalarBlock<f32>>(&a, &b)));
+        let (a, b) = awkward::<f64>();
+        // SAFETY: as above.
+        let avx = unsafe { with_avx::<f64, AvxF64>(&a, &b) };
+        assert_eq!(bits(&avx), bits(&ops::<f64, ScalarBlock<f64>>(&a, &b)));
+    }
+}
