@@ -127,8 +127,16 @@ impl<T: Real> KernelLaw<T> for BilinearParams<T> {
     }
     #[inline(always)]
     fn block_params<B: Block<T>>(c: &Self::Chunk<'_>, shared: bool) -> [B; 6] {
-        // [rest, damping, k1, k2, kc, turn]
-        [c[0], c[5], c[1], c[2], c[3], c[4]].map(|s| block_of(s, shared))
+        // [rest, damping, k1, k2, kc, turn]; no `array::map`: its closure may stay out of
+        // line, compiled without this level's instructions.
+        [
+            block_of(c[0], shared),
+            block_of(c[5], shared),
+            block_of(c[1], shared),
+            block_of(c[2], shared),
+            block_of(c[3], shared),
+            block_of(c[4], shared),
+        ]
     }
     #[inline(always)]
     fn block_tension<B: Block<T>>(p: &[B; 6], stretch: B) -> B {
