@@ -86,3 +86,27 @@ fn shared_run_parameters_match_streamed_parameters_bit_for_bit_works() {
         }
     }
 }
+
+/// The default scene's bilinear springs (lane blocks, partial blocks, shared parameters)
+/// give the same bits at every instruction-set level.
+#[test]
+fn simd_levels_are_bit_identical_on_bilinear_springs_works() {
+    use lamina_core::scene::Scene;
+    let scene = Scene::builtin_default();
+    let model = scene.build_model().unwrap();
+    let run = |level: SimdLevel| {
+        let params = lamina_core::solver::IntegrationParameters { simd: level, ..scene.solver.clone() };
+        let mut sim = Simulation::<f32>::new(&model, params, scene.effects.clone()).unwrap();
+        for _ in 0..100 {
+            sim.step();
+        }
+        (0..model.nodes.len()).map(|i| sim.state().x.get_f64(i).map(f64::to_bits)).collect::<Vec<_>>()
+    };
+    let levels = SimdLevel::available();
+    let base = run(levels[0]);
+    for &level in &levels[1..] {
+        assert!(run(level) == base, "{level} differs from {}", levels[0]);
+    }
+    let start: Vec<_> = model.nodes.position.iter().map(|p| p.map(|c| (c as f32 as f64).to_bits())).collect();
+    assert_ne!(base, start, "the scene moved");
+}
