@@ -6,47 +6,33 @@
 
 use glam::Vec3;
 
-/// The tissues the viewer tells apart, each drawn in its own material.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Tissue {
-    /// Skin (epidermis and dermis).
-    Skin,
-    /// Subcutaneous fat.
-    Fat,
-    /// Skeletal muscle.
-    Muscle,
-    /// Bone (cortex).
-    Bone,
-    /// Anything else (drawn neutral grey).
-    Other,
+/// The tissues the viewer tells apart, each drawn in its own material: the core's.
+pub use lamina_core::model::Tissue;
+
+/// The tissue a layer or surface name refers to: `skin*`/`derm*`, `fat*`/`adipose*`/
+/// `subcut*`, `muscle*`, `bone*`; anything else is [`Tissue::Other`].
+pub fn tissue_from_name(name: &str) -> Tissue {
+    let lower = name.to_ascii_lowercase();
+    if lower.starts_with("skin") || lower.starts_with("derm") {
+        Tissue::Skin
+    } else if lower.starts_with("fat") || lower.starts_with("adipose") || lower.starts_with("subcut") {
+        Tissue::Fat
+    } else if lower.starts_with("muscle") {
+        Tissue::Muscle
+    } else if lower.starts_with("bone") {
+        Tissue::Bone
+    } else {
+        Tissue::Other
+    }
 }
 
-impl Tissue {
-    /// The tissue a layer or surface name refers to: `skin*`, `fat*`/`adipose*`,
-    /// `muscle*`, `bone*`; anything else is [`Tissue::Other`].
-    pub fn from_name(name: &str) -> Self {
-        let lower = name.to_ascii_lowercase();
-        if lower.starts_with("skin") || lower.starts_with("derm") {
-            Tissue::Skin
-        } else if lower.starts_with("fat") || lower.starts_with("adipose") || lower.starts_with("subcut") {
-            Tissue::Fat
-        } else if lower.starts_with("muscle") {
-            Tissue::Muscle
-        } else if lower.starts_with("bone") {
-            Tissue::Bone
-        } else {
-            Tissue::Other
-        }
-    }
-
-    /// The tissue just beneath a boundary surface named after the two tissues it separates
-    /// (`skin_outer` → skin, `skin_fat` → fat, `fat_muscle` → muscle, `muscle_bone` → bone).
-    pub fn beneath_boundary(name: &str) -> Self {
-        match name.rsplit('_').next() {
-            Some("outer") => Tissue::Skin,
-            Some(last) => Tissue::from_name(last),
-            None => Tissue::Other,
-        }
+/// The tissue just beneath a boundary surface named after the two tissues it separates
+/// (`skin_outer` → skin, `skin_fat` → fat, `fat_muscle` → muscle, `muscle_bone` → bone).
+pub fn tissue_beneath_boundary(name: &str) -> Tissue {
+    match name.rsplit('_').next() {
+        Some("outer") => Tissue::Skin,
+        Some(last) => tissue_from_name(last),
+        None => Tissue::Other,
     }
 }
 
@@ -113,7 +99,7 @@ impl ViewModel {
     /// (a grid whose last column repeats its first is turned into a wrapping one), the others
     /// triangle surfaces; springs keep their layer's tissue.
     pub fn from_core_model(model: &lamina_core::model::Model) -> Self {
-        let layer_tissue: Vec<Tissue> = model.layers.iter().map(|l| tissue_of_core(l.tissue)).collect();
+        let layer_tissue: Vec<Tissue> = model.layers.iter().map(|l| l.tissue).collect();
         let mut view = ViewModel { name: model.name.clone(), node_count: model.nodes.len(), ..Self::default() };
         for surface in &model.surfaces {
             match &surface.grid {
@@ -131,13 +117,13 @@ impl ViewModel {
                         rows,
                         wrap: seam_repeated,
                         nodes,
-                        beneath: Tissue::beneath_boundary(&surface.name),
+                        beneath: tissue_beneath_boundary(&surface.name),
                     });
                 }
                 None => view.triangle_surfaces.push(TriangleSurface {
                     name: surface.name.clone(),
                     triangles: surface.triangles.clone(),
-                    tissue: Tissue::beneath_boundary(&surface.name),
+                    tissue: tissue_beneath_boundary(&surface.name),
                 }),
             }
         }
@@ -173,17 +159,6 @@ impl ViewModel {
             springs: edges,
             spring_tissue,
         }
-    }
-}
-
-fn tissue_of_core(t: lamina_core::model::Tissue) -> Tissue {
-    use lamina_core::model::Tissue as T;
-    match t {
-        T::Skin => Tissue::Skin,
-        T::Fat => Tissue::Fat,
-        T::Muscle => Tissue::Muscle,
-        T::Bone => Tissue::Bone,
-        T::Other => Tissue::Other,
     }
 }
 
@@ -230,11 +205,11 @@ mod tests {
 
     #[test]
     fn tissue_beneath_boundary_works() {
-        assert_eq!(Tissue::beneath_boundary("skin_outer"), Tissue::Skin);
-        assert_eq!(Tissue::beneath_boundary("skin_fat"), Tissue::Fat);
-        assert_eq!(Tissue::beneath_boundary("fat_muscle"), Tissue::Muscle);
-        assert_eq!(Tissue::beneath_boundary("muscle_bone"), Tissue::Bone);
-        assert_eq!(Tissue::beneath_boundary("whatever"), Tissue::Other);
+        assert_eq!(tissue_beneath_boundary("skin_outer"), Tissue::Skin);
+        assert_eq!(tissue_beneath_boundary("skin_fat"), Tissue::Fat);
+        assert_eq!(tissue_beneath_boundary("fat_muscle"), Tissue::Muscle);
+        assert_eq!(tissue_beneath_boundary("muscle_bone"), Tissue::Bone);
+        assert_eq!(tissue_beneath_boundary("whatever"), Tissue::Other);
     }
 
     #[test]
