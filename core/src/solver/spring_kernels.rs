@@ -298,7 +298,11 @@ fn group_tail<T: Real, L: KernelLaw<T>, const DAMP: bool>(
         let wb = b - out.lo;
         for l in 0..n {
             let d = [eb.x[0][l] - ea.x[0][l], eb.x[1][l] - ea.x[1][l], eb.x[2][l] - ea.x[2][l]];
-            let dv = [eb.v[0][l] - ea.v[0][l], eb.v[1][l] - ea.v[1][l], eb.v[2][l] - ea.v[2][l]];
+            let dv = if DAMP {
+                [eb.v[0][l] - ea.v[0][l], eb.v[1][l] - ea.v[1][l], eb.v[2][l] - ea.v[2][l]]
+            } else {
+                [T::ZERO; 3]
+            };
             let p = if shared { 0 } else { l };
             let kept = keep.is_none_or(|k| k[l] != 0);
             let f = spring_force::<T, L, DAMP>(&chunk, p, d[0], d[1], d[2], dv[0], dv[1], dv[2], kept);
@@ -350,7 +354,8 @@ fn accumulate_block<T: Real, B: Block<T>, L: KernelLaw<T>, const DAMP: bool>(
     for i in part.loose.clone() {
         let (a, b) = (block.loose_a[i] as usize, block.loose_b[i] as usize);
         let s = block.loose_first + i;
-        let (dvx, dvy, dvz) = (vx[b] - vx[a], vy[b] - vy[a], vz[b] - vz[a]);
+        let (dvx, dvy, dvz) =
+            if DAMP { (vx[b] - vx[a], vy[b] - vy[a], vz[b] - vz[a]) } else { (T::ZERO, T::ZERO, T::ZERO) };
         let params = block.params.chunk(s, 1);
         let f = spring_force::<T, L, DAMP>(&params, 0, x[b] - x[a], y[b] - y[a], z[b] - z[a], dvx, dvy, dvz, true);
         fx[a - lo] += f[0];

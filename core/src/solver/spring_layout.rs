@@ -55,16 +55,23 @@ pub trait ParamTable: Default {
     fn same(&self, i: usize, j: usize) -> bool;
     /// Appends a copy of `other`'s entry `i`.
     fn push_from(&mut self, other: &Self, i: usize);
+    /// Number of entries.
+    fn entries(&self) -> usize;
 }
 
 macro_rules! param_table {
-    ($ty:ident: $($col:ident),+) => {
+    ($ty:ident: $first:ident $(, $col:ident)*) => {
         impl<T: Real> ParamTable for $ty<T> {
             fn same(&self, i: usize, j: usize) -> bool {
-                true $(&& self.$col[i].to_f64().to_bits() == self.$col[j].to_f64().to_bits())+
+                self.$first[i].to_f64().to_bits() == self.$first[j].to_f64().to_bits()
+                    $(&& self.$col[i].to_f64().to_bits() == self.$col[j].to_f64().to_bits())*
             }
             fn push_from(&mut self, other: &Self, i: usize) {
-                $(self.$col.push(other.$col[i]);)+
+                self.$first.push(other.$first[i]);
+                $(self.$col.push(other.$col[i]);)*
+            }
+            fn entries(&self) -> usize {
+                self.$first.len()
             }
         }
     };
@@ -132,8 +139,6 @@ pub struct SpringBlock<P> {
     pub source: Vec<u32>,
     /// Per-thread parts.
     pub parts: Vec<Part>,
-    /// Number of entries in `shared`.
-    pub shared_len: usize,
 }
 
 impl<P> SpringBlock<P> {
@@ -338,9 +343,8 @@ fn build_block<P: ParamTable>(
             && share
             && real.iter().all(|&r| block.params.same(r0, r))
         {
-            run.shared = block.shared_len as u32;
+            run.shared = block.shared.entries() as u32;
             block.shared.push_from(&block.params, r0);
-            block.shared_len += 1;
             if real.len() < members.len() {
                 run.mask = block.active.len() as u32;
                 block.active.extend(members.iter().map(|&m| u8::from(m != NULL_SPRING)));
