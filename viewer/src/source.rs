@@ -222,14 +222,14 @@ impl FrameSource for LiveSource {
                 return SourceEvent::Idle("waiting for core (nodes)");
             }
         };
-        // Newest wins: drop what queued up while we were drawing.
-        let sample = match self.nodes.latest() {
-            Ok(Some(newer)) => {
-                drop(first);
-                newer
-            }
-            _ => first,
-        };
+        // Newest wins: drop what queued up while we were drawing. One sample is held while the
+        // next is taken (a subscriber may borrow only `MAX_BORROWED_SAMPLES` = 2 at once; asking
+        // `latest()` while still holding `first` took a third, failed, and drew the oldest
+        // queued frame, ~15 ms behind the core).
+        let mut sample = first;
+        while let Ok(Some(newer)) = self.nodes.try_receive() {
+            sample = newer;
+        }
         let header = *sample.header();
         if header.node_count as usize != node_count || sample.positions().len() != node_count {
             // Frames of another model: the core restarted with a new model; await its topology.

@@ -221,7 +221,9 @@ mod tests {
         assert_eq!(view.node_count, model.nodes.len());
         assert_eq!(view.springs.len(), model.springs.len());
         let skin = &view.grids[0];
-        assert_eq!((skin.name.as_str(), skin.beneath, skin.wrap), ("skin_outer", Tissue::Skin, false));
+        // The default limb's skin grid closes around its axis.
+        assert_eq!((skin.name.as_str(), skin.beneath, skin.wrap), ("skin_outer", Tissue::Skin, true));
+        assert_eq!(view.grids.len(), 4, "skin, skin/fat, fat/muscle and muscle/bone boundaries");
     }
 
     #[test]

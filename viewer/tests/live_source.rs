@@ -11,11 +11,8 @@ use lamina_bridge::{Bridge, BridgeConfig, LayerRange, NodesPublisher, Topology, 
 use lamina_viewer::source::{FrameSource, LiveSource, SourceEvent};
 use lamina_viewer::synthetic::SyntheticLimb;
 
-/// A stand-in core: publishes the topology, then `frames` node frames of the synthetic limb.
-fn run_core(prefix: String, frames: u64, stop: Arc<AtomicBool>) {
-    let limb = SyntheticLimb::default();
-    let model = limb.view_model();
-    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+/// The wire topology of the synthetic limb: its skin grid as triangles.
+fn topology_of(model: &lamina_viewer::view_model::ViewModel) -> Topology {
     let triangles = model.grids[0]
         .nodes
         .chunks(model.grids[0].cols)
@@ -29,12 +26,20 @@ fn run_core(prefix: String, frames: u64, stop: Arc<AtomicBool>) {
             })
         })
         .collect();
-    let topology = Topology {
+    Topology {
         node_count: model.node_count as u32,
         triangles,
         layers: vec![LayerRange { name: "skin".into(), first_node: 0, node_count: model.node_count as u32 }],
         tex_coords: Vec::new(),
-    };
+    }
+}
+
+/// A stand-in core: publishes the topology, then `frames` node frames of the synthetic limb.
+fn run_core(prefix: String, frames: u64, stop: Arc<AtomicBool>) {
+    let limb = SyntheticLimb::default();
+    let model = limb.view_model();
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+    let topology = topology_of(&model);
     let mut topo_pub = TopologyPublisher::create(&bridge, topology.word_count()).expect("topology publisher");
     let nodes_pub = NodesPublisher::create(&bridge, model.node_count).expect("nodes publisher");
     topo_pub.publish(&topology).expect("topology published");
@@ -99,4 +104,38 @@ fn live_source_follows_core_and_restart_works() {
         latencies[latencies.len() - 1] as f64 / 1e6,
         latencies.len()
     );
+}
+
+#[test]
+fn live_source_draws_the_newest_queued_frame_works() {
+    // Frames queue up while the viewer draws; the next one it takes must be the newest, not
+    // the oldest in its 16-frame buffer.
+    let prefix = format!("lamina_viewer_newest_{}", std::process::id());
+    let limb = SyntheticLimb::default();
+    let model = limb.view_model();
+    let mut source = LiveSource::open(&prefix, Some(model.clone())).expect("live source opens");
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+    let topology = topology_of(&model);
+    let mut topo_pub = TopologyPublisher::create(&bridge, topology.word_count()).expect("topology publisher");
+    let nodes_pub = NodesPublisher::create(&bridge, model.node_count).expect("nodes publisher");
+    topo_pub.publish(&topology).expect("topology published");
+    let mut got_model = false;
+    for _ in 0..50 {
+        if let SourceEvent::Model(_) = source.next_event(Duration::from_millis(100)) {
+            got_model = true;
+            break;
+        }
+    }
+    assert!(got_model, "the viewer took the topology");
+    for k in 0..10u64 {
+        let frame = limb.frame(k, k as f64 / 1000.0);
+        nodes_pub
+            .publish_from_fn(k, k, k as f64 / 1000.0, model.node_count, |i| frame.positions[i].to_array())
+            .expect("frame published");
+    }
+    match source.next_event(Duration::from_millis(500)) {
+        SourceEvent::Frame(f) => assert_eq!(f.sequence, 9, "the newest of 10 queued frames"),
+        other => panic!("expected a frame, got {other:?}"),
+    }
+    assert!(matches!(source.next_event(Duration::from_millis(20)), SourceEvent::Idle(_)), "nothing older is left");
 }

@@ -206,7 +206,11 @@ fn set_texcoords(model: &mut Model) {
     }
 }
 
-/// The outer skin (with its grid) and the three deeper boundaries.
+/// The outer skin and the three deeper boundaries, each with its triangles and a regular
+/// grid (last column repeating the first, around the axis). A deeper level has one node per
+/// outer triangle; its grid takes the first half of every cell (the triangle whose centroid
+/// sits a third of a cell from corner `(c, r)`), `W × H` points, so a viewer can draw and
+/// cut every boundary as it draws the skin.
 fn surfaces_of(topo: &LayeredTopology) -> Vec<Surface> {
     let grid = topo.grid;
     let (w, h) = (grid.columns, grid.rows);
@@ -224,7 +228,13 @@ fn surfaces_of(topo: &LayeredTopology) -> Vec<Surface> {
         all.push(Surface {
             name: boundary.name().into(),
             triangles: topo.level_triangles.iter().map(|tri| tri.map(|t| grid.triangle_node(level, t))).collect(),
-            grid: None,
+            grid: Some((
+                w + 1,
+                h,
+                (0..h)
+                    .flat_map(|r| (0..=w).map(move |c| grid.triangle_node(level, grid.triangle(c % w, r, 0))))
+                    .collect(),
+            )),
         });
     }
     all

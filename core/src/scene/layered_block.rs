@@ -1,6 +1,6 @@
 //! The built-in layered block: muscle, fat and skin rows over a fixed bone plane, on a
-//! regular lattice with the yardstick's edge and face-diagonal springs. The default scene's
-//! model until the generator's limb replaces it.
+//! regular lattice with the yardstick's edge and face-diagonal springs
+//! (`config/scenes/block.toml`; the default scene is the generator's limb).
 
 use crate::law::{Bilinear, SpringLaw};
 use crate::model::{Layer, Model, NodeKind, Surface, Tissue};

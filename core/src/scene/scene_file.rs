@@ -635,7 +635,42 @@ mod tests {
         assert_eq!(s.rate_hz, 1000);
         assert!(s.effects.bone && s.effects.guard.is_some());
         let m = s.build_model().unwrap();
-        assert!(m.nodes.len() > 1000);
+        // The generator's cylinder limb on a 24 x 6 grid: W(7H+1) masses (the paper's Table 3 rule).
+        assert_eq!(m.nodes.position.len(), 24 * (7 * 6 + 1));
+    }
+
+    #[test]
+    fn scene_builtin_default_tool_and_handle_sit_on_the_skin_works() {
+        use crate::solver::Simulation;
+        let s = Scene::builtin_default();
+        let m = s.build_model().unwrap();
+        let outer_radius = crate::generator::CylinderLimb::default().outer_skin_radius;
+        let tool = s.tool.expect("the default scene has a haptic tool");
+        let ToolSource::Haptics { device_origin, .. } = tool.source else { panic!("haptics tool") };
+        // A skin node right under the device's centre, on top of the limb.
+        let under: Vec<usize> = (0..m.nodes.position.len())
+            .filter(|&i| {
+                let p = m.nodes.position[i];
+                (p[0] - device_origin[0]).abs() < 1e-9
+                    && (p[2] - device_origin[2]).abs() < 1e-9
+                    && (p[1] - outer_radius).abs() < 1e-9
+            })
+            .collect();
+        assert_eq!(under.len(), 1, "one skin node under the device's centre");
+        // Once the limb has settled (only the drag handle loads it), the device's centre is one tool radius
+        // above that node (within 0.2 mm), so device z = 0 is the tool just touching.
+        let mut sim = Simulation::<f64>::new(&m, s.solver.clone(), s.effects.clone()).unwrap();
+        for _ in 0..3 * s.rate_hz {
+            sim.step();
+        }
+        let settled = sim.state().x.get_f64(under[0]);
+        assert!((device_origin[1] - tool.radius - settled[1]).abs() < 2e-4, "{device_origin:?} over {settled:?}");
+        // The handle holds an outer-skin node and pulls it 1 cm straight out.
+        let h = &s.effects.handles[0];
+        let p = m.nodes.position[h.node as usize];
+        assert!(((p[0] * p[0] + p[1] * p[1]).sqrt() - outer_radius).abs() < 1e-12, "{p:?}");
+        let pull: f64 = (0..3).map(|c| (h.target[c] - p[c]).powi(2)).sum::<f64>().sqrt();
+        assert!((pull - 0.01).abs() < 1e-12, "{pull}");
     }
 
     #[test]
