@@ -3,7 +3,7 @@
 //! guard rollbacks.
 
 use lamina_core::scene::Scene;
-use lamina_core::solver::{DragHandle, GuardSettings, IntegratorKind, PointLoad, Simulation};
+use lamina_core::solver::{DragHandle, GuardSettings, IntegratorKind, PointLoad, Simulation, SphereTool};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -46,6 +46,8 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
     effects.loads.push(PointLoad { node: 78, force: [0.0, -0.01, 0.0], ramp_s: 0.01 });
     effects.handles.push(DragHandle { node: 30, target: [0.0, 0.08, 0.05], stiffness: 1.0, damping: 0.01 });
     effects.guard = Some(GuardSettings::default());
+    // The haptic tool pressing 8 mm into the skin (its point shell and deep-node contact).
+    effects.tool = Some(SphereTool { radius: 0.012, stiffness: 300.0, start: [0.0, 0.054, 0.12], velocity: [0.0; 3] });
     // Sanity: the counter sees allocations.
     COUNTING.store(true, Ordering::SeqCst);
     let v: Vec<u64> = std::hint::black_box(vec![1, 2, 3]);
@@ -74,6 +76,7 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
             assert_eq!(n, 0, "{integrator} with {threads} thread(s) allocated {n} times");
             assert!(sim.guard_totals().rollbacks >= 1, "{integrator}: the injected NaN was caught");
             assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
+            assert!(sim.tool_feedback().in_contact, "{integrator}: the tool pressed the skin throughout");
         }
     }
 }

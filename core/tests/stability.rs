@@ -73,7 +73,10 @@ fn coincident_nodes_stay_stable_works() {
 #[test]
 fn tool_through_skin_stays_stable_works() {
     for row in check("tool_through_skin") {
-        assert!(row.max_displacement_m > 0.002, "the tool really pushed the tissue aside: {row:?}");
+        // The 5 mm sphere meets the skin's point shell with a penalty pressure of (300 N/m) per
+        // node's share of skin, at most ~0.17 N before it is through (pi k h d^2 peaks at
+        // d = 2r/3): it pushes the skin millimetres, not centimetres.
+        assert!(row.max_displacement_m > 0.001, "the tool really pushed the tissue aside: {row:?}");
     }
 }
 

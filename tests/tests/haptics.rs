@@ -209,7 +209,7 @@ fn press_force_at_device_matches_offline_static_contact_works() {
     let err = (0..3).map(|c| (online[c] - offline[c]).powi(2)).sum::<f64>().sqrt();
     let mag = (0..3).map(|c| offline[c].powi(2)).sum::<f64>().sqrt();
     eprintln!("hold force at the device: online {online:?} N, offline static {offline:?} N, difference {err:.4} N");
-    assert!(offline[2] > 0.05, "the tissue pushes the tool up (device +z): {offline:?}");
+    assert!(offline[2] > 0.03, "the tissue pushes the tool up (device +z): {offline:?}");
     assert!(err <= 0.03 * mag + 0.005, "online {online:?} N vs offline {offline:?} N");
     // The force is steady during the hold (no oscillation rendered by the device loop).
     let spread = hold.iter().map(|r| (r.force[2] - online[2]).abs()).fold(0.0, f64::max);
@@ -232,19 +232,19 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
     let feedback = FeedbackSubscriber::create(&bridge).unwrap();
     let h = haptics(&prefix, &device, &dir, &["--seconds", "4.0"]).spawn().expect("starting lamina-haptics");
     // Freeze the core mid-press for half a second, then let it go on. The moment is taken from
-    // the core's own feedback (the tool pressing with more than 0.06 N, about two thirds of the
-    // hold's force on the default limb), not from a wall-clock
+    // the core's own feedback (the tool pressing with more than 0.04 N, about 60 % of the
+    // hold's 0.07 N on the soft default limb), not from a wall-clock
     // guess: on a loaded machine the processes start late by an unknown amount.
     let waited = std::time::Instant::now();
     let mut pressing = false;
     while !pressing && waited.elapsed() < Duration::from_secs(30) {
         while let Some(s) = feedback.try_receive().unwrap() {
             let f = s.message().force;
-            pressing |= f.iter().map(|c| c * c).sum::<f64>().sqrt() > 0.06;
+            pressing |= f.iter().map(|c| c * c).sum::<f64>().sqrt() > 0.04;
         }
         std::thread::sleep(Duration::from_millis(1));
     }
-    assert!(pressing, "the scripted press reached 0.06 N within 30 s");
+    assert!(pressing, "the scripted press reached 0.04 N within 30 s");
     let stop_ns = lamina_bridge::now_ns();
     unsafe { libc::kill(core_pid as i32, libc::SIGSTOP) };
     std::thread::sleep(Duration::from_millis(500));
@@ -263,7 +263,7 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
         last_change -= 1;
     }
     let last_feedback_ns = rows[last_change].time_ns;
-    assert!(rows[last_change].force[2] > 0.05, "pressing when the core stopped: {:?}", rows[last_change].force);
+    assert!(rows[last_change].force[2] > 0.02, "pressing when the core stopped: {:?}", rows[last_change].force);
     let resumed = rows[idx_stop..].iter().position(|r| r.core_tick != rows[idx_stop].core_tick).map(|i| i + idx_stop);
     let resumed = resumed.expect("the core came back");
     let quiet_rows: Vec<&Row> = rows[last_change..resumed].iter().collect();
@@ -276,7 +276,7 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
         "and stays zero while the core is quiet"
     );
     let max_after = rows[resumed..].iter().take(4000).map(|r| r.force[2]).fold(0.0, f64::max);
-    assert!(max_after > 0.05, "force comes back with the core");
+    assert!(max_after > 0.03, "force comes back with the core");
 }
 
 #[test]

@@ -49,7 +49,7 @@ fn time_steps(
 /// Runs the comparison and prints the table.
 pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
     let model = scene.build_model().map_err(|e| e.to_string())?;
-    let params = IntegrationParameters { substeps: Substeps::Fixed(1), ..scene.solver.clone() };
+    let mut params = IntegrationParameters { substeps: Substeps::Fixed(1), ..scene.solver.clone() };
     let n = model.nodes.len() as u32;
     let loads: Vec<PointLoad> =
         (0..16).map(|i| PointLoad { node: (n - 1 - i * (n / 32)), force: [0.0, -0.01, 0.0], ramp_s: 0.1 }).collect();
@@ -75,6 +75,11 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
         start: [centre[0], top[1] + 0.007, centre[2]],
         velocity: [0.0; 3],
     };
+    // One sub-step per step at 0.8 of the explicit critical step with every effect on (the
+    // tool's and handles' springs included), so every configuration steps a stable state.
+    let probe = Simulation::<f64>::new(&model, params.clone(), all_on_effects(&loads, &handles, tool))
+        .map_err(|e| e.to_string())?;
+    params.dt = 0.8 * probe.critical_step();
     let springs_only = Effects::default();
     let singles: Vec<(&str, Effects)> = vec![
         ("spring dashpots", Effects { spring_damping: true, ..Effects::default() }),
@@ -93,22 +98,13 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
         ("sphere tool", Effects { tool: Some(tool), ..Effects::default() }),
         ("guard", Effects { guard: Some(GuardSettings::default()), ..Effects::default() }),
     ];
-    let all_on = Effects {
-        gravity: Some([0.0, -9.81, 0.0]),
-        viscous_damping: Some(2.0),
-        spring_damping: true,
-        bone: true,
-        bone_motion: Some(BoneMotion { amplitude: [0.0, 0.001, 0.0], frequency_hz: 1.0 }),
-        loads,
-        handles,
-        guard: Some(GuardSettings::default()),
-        tool: Some(tool),
-    };
+    let all_on = all_on_effects(&loads, &handles, tool);
     println!(
-        "effects benchmark: scene '{}', {} nodes, {} springs, f32, 1 sub-step per step, {} thread(s), SIMD {}",
+        "effects benchmark: scene '{}', {} nodes, {} springs, f32, 1 sub-step of {:.3e} s per step, {} thread(s), SIMD {}",
         scene.name,
         model.nodes.len(),
         model.springs.len(),
+        params.dt,
         params.threads,
         params.simd
     );
@@ -135,4 +131,20 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
     );
     println!("(fastest of 9 interleaved batches per configuration)");
     Ok(())
+}
+
+/// Every effect at once: gravity, damping, bone (fixed and moving), the loads, handles and
+/// tool of the single-effect runs, and the guard.
+fn all_on_effects(loads: &[PointLoad], handles: &[DragHandle], tool: SphereTool) -> Effects {
+    Effects {
+        gravity: Some([0.0, -9.81, 0.0]),
+        viscous_damping: Some(2.0),
+        spring_damping: true,
+        bone: true,
+        bone_motion: Some(BoneMotion { amplitude: [0.0, 0.001, 0.0], frequency_hz: 1.0 }),
+        loads: loads.to_vec(),
+        handles: handles.to_vec(),
+        guard: Some(GuardSettings::default()),
+        tool: Some(tool),
+    }
 }

@@ -68,6 +68,12 @@ pub struct Dynamics<T> {
     pub(crate) effects: Effects,
     /// Nodes the tool pushed at the last evaluation (capacity: every node, so no allocation).
     pub(crate) tool_touched: Vec<u32>,
+    /// `tool_touched` as a flag per node (each node is listed once).
+    pub(crate) tool_marked: Vec<bool>,
+    /// The point shell on the outer skin the tool meets (empty: node contact only).
+    pub(crate) skin_shell: super::skin_contact::SkinShell,
+    /// Free nodes off the shell, which the tool pushes one by one.
+    pub(crate) tool_nodes: Vec<u32>,
     /// What the tool felt at the last evaluation.
     pub(crate) tool_feedback: super::effects::ToolFeedback,
     /// Per-stage timers.
@@ -87,7 +93,7 @@ impl<T: Real> Dynamics<T> {
             effects.spring_damping,
             params.share_run_parameters,
         );
-        let free = model
+        let free: Vec<T> = model
             .nodes
             .kind
             .iter()
@@ -98,6 +104,11 @@ impl<T: Real> Dynamics<T> {
         } else {
             Vec::new()
         };
+        // Sampled for the tool's radius at construction (1 cm without a tool yet).
+        let skin_shell = super::skin_contact::SkinShell::of_model(model, effects.tool.map_or(0.01, |t| t.radius));
+        let tool_nodes = (0..n as u32)
+            .filter(|&i| free[i as usize] != T::ZERO && !skin_shell.on_shell.get(i as usize).copied().unwrap_or(false))
+            .collect();
         Self {
             pass,
             pool: WorkerPool::new(threads, params.pin_workers),
@@ -108,6 +119,9 @@ impl<T: Real> Dynamics<T> {
             external: Vec3s::zeros(n),
             effects,
             tool_touched: Vec::with_capacity(n),
+            tool_marked: vec![false; n],
+            skin_shell,
+            tool_nodes,
             tool_feedback: Default::default(),
             counters: StageCounters::default(),
         }
@@ -129,6 +143,7 @@ impl<T: Real> Dynamics<T> {
         let ext = &mut self.external;
         for &i in &self.tool_touched {
             ext.set(i as usize, [T::ZERO; 3]);
+            self.tool_marked[i as usize] = false;
         }
         self.tool_touched.clear();
         for l in &self.effects.loads {
@@ -152,26 +167,66 @@ impl<T: Real> Dynamics<T> {
             let c = tool.centre(t);
             let mut fb = super::effects::ToolFeedback { centre: c, ..Default::default() };
             let r2 = tool.radius * tool.radius;
-            for i in 0..x.len() {
-                if self.free[i] == T::ZERO {
-                    continue;
+            let shell = &self.skin_shell;
+            let (touched, marked) = (&mut self.tool_touched, &mut self.tool_marked);
+            // Pushes node `i` by `f` (N) and lists it for zeroing at the next evaluation.
+            let mut push_node = |i: usize, f: [f64; 3]| {
+                let old = ext.get(i);
+                ext.set(i, [0, 1, 2].map(|k| old[k] + T::from_f64(f[k])));
+                if !marked[i] {
+                    marked[i] = true;
+                    touched.push(i as u32);
                 }
-                let d = [x.x[i].to_f64() - c[0], x.y[i].to_f64() - c[1], x.z[i].to_f64() - c[2]];
+            };
+            // A contact point at `p` inside the sphere: its outward push and the tool's feedback.
+            let contact = |p: [f64; 3], k: f64, fb: &mut super::effects::ToolFeedback| -> Option<[f64; 3]> {
+                let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
                 let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 if d2 >= r2 || !d2.is_finite() {
-                    continue;
+                    return None;
                 }
                 let dist = d2.sqrt().max(1e-9);
                 let n = [d[0] / dist, d[1] / dist, d[2] / dist];
-                let push = tool.stiffness * (tool.radius - dist);
-                let old = ext.get(i);
-                ext.set(i, [0, 1, 2].map(|k| old[k] + T::from_f64(push * n[k])));
-                self.tool_touched.push(i as u32);
+                let push = k * (tool.radius - dist);
                 fb.nodes += 1;
                 for a in 0..3 {
                     fb.force[a] -= push * n[a];
                     for b in 0..3 {
-                        fb.stiffness[a][b] -= tool.stiffness * n[a] * n[b];
+                        fb.stiffness[a][b] -= k * n[a] * n[b];
+                    }
+                }
+                Some(n.map(|x| push * x))
+            };
+            // Free nodes off the skin shell (deep nodes once the tool is through, or every node
+            // of a model without a skin surface).
+            for &i in &self.tool_nodes {
+                if let Some(f) = contact(x.get_f64(i as usize), tool.stiffness, &mut fb) {
+                    push_node(i as usize, f);
+                }
+            }
+            // The skin's point shell: triangles the sphere reaches.
+            for tri in &shell.triangles {
+                let v = tri.nodes.map(|i| x.get_f64(i as usize));
+                let near = super::skin_contact::distance2_to_triangle(c, v[0], v[1], v[2]) < r2; // false if not finite
+                if !near {
+                    continue;
+                }
+                let k_sample = tool.stiffness * tri.sample_weight;
+                // The samples' pushes, summed per node of the triangle, applied once.
+                let mut on_nodes = [[0.0_f64; 3]; 3];
+                super::skin_contact::for_each_sample(tri.subdivision, |w| {
+                    let p = [0, 1, 2].map(|k| w[0] * v[0][k] + w[1] * v[1][k] + w[2] * v[2][k]);
+                    if let Some(f) = contact(p, k_sample, &mut fb) {
+                        for (acc, wj) in on_nodes.iter_mut().zip(w) {
+                            for k in 0..3 {
+                                acc[k] += wj * f[k];
+                            }
+                        }
+                    }
+                });
+                for (&node, f) in tri.nodes.iter().zip(on_nodes) {
+                    if self.free[node as usize] != T::ZERO && f != [0.0; 3] {
+                        push_node(node as usize, f);
                     }
                 }
             }

@@ -34,14 +34,17 @@ pub struct DragHandle {
     pub damping: f64,
 }
 
-/// A rigid sphere (a haptic tool's tip) pushing nodes out by penalty springs: a node at
-/// distance `d < radius` from the centre feels `stiffness · (radius − d)` along the outward
-/// direction. The centre moves as `start + velocity · t` unless a caller sets it each frame.
+/// A rigid sphere (a haptic tool's tip) pushing the tissue out by penalty springs. It meets
+/// the outer skin's surface through a point shell (see `skin_contact.rs`: samples on every
+/// skin triangle, a penalty pressure such that no skin node feels more than `stiffness`),
+/// and any other node at distance `d < radius` from the centre feels
+/// `stiffness · (radius − d)` along the outward direction. The centre moves as
+/// `start + velocity · t` unless a caller sets it each frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SphereTool {
     /// Radius, m.
     pub radius: f64,
-    /// Penalty stiffness per node, N/m.
+    /// Penalty stiffness per node, N/m (the most any skin node feels from the shell).
     pub stiffness: f64,
     /// Centre at t = 0, m.
     pub start: [f64; 3],
@@ -60,9 +63,9 @@ impl SphereTool {
 /// (`F(x) ≈ force + stiffness · (x − centre)`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToolFeedback {
-    /// Whether any node touches the tool.
+    /// Whether any contact point touches the tool.
     pub in_contact: bool,
-    /// Nodes in contact.
+    /// Contact points inside the tool: skin-shell samples and nodes off the skin.
     pub nodes: u32,
     /// Force on the tool, N (the reaction of the tissue).
     pub force: [f64; 3],

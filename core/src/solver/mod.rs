@@ -15,6 +15,7 @@ mod node_accel;
 mod params;
 mod simd;
 mod simulation;
+mod skin_contact;
 mod spring_kernels;
 mod spring_layout;
 mod spring_pass;
