@@ -151,10 +151,26 @@ impl MeshBuilder {
         let pos = &frame.positions;
         self.patches.resize_with(model.grids.len(), Vec::new);
         let mut count_sum = 0u64;
+        // Boundaries inside a closed skin tube are seen only through the cut faces and end
+        // caps, which are built from their patches: their own surfaces are not drawn. Drawn,
+        // the approximating patches of a deeper grid (sampled half a cell apart from the
+        // skin's, 2 mm beneath it) could poke through a sharply bent skin.
+        let enclosed = |g: usize| {
+            let outer = &model.grids[0];
+            g > 0 && opts.end_caps && outer.wrap && model.grids[g].wrap && model.grids[g].cols == outer.cols
+        };
         for (g, grid) in model.grids.iter().enumerate() {
             self.points.clear();
             self.points.extend(grid.nodes.iter().map(|&i| pos[i as usize]));
             let surface = GridSurface::new(grid.cols, grid.rows, grid.wrap, &self.points);
+            if enclosed(g) {
+                let patches = &mut self.patches[g];
+                patches.clear();
+                for r in 0..surface.cell_rows() {
+                    patches.extend((0..surface.cell_cols()).map(|c| surface.patch(c, r)));
+                }
+                continue;
+            }
             let material = Material::of(if g == 0 { Tissue::Skin } else { grid.beneath });
             let (sum, max) = tessellate(&surface, &mut self.patches[g], material, opts.phi, out);
             count_sum += sum;
@@ -483,5 +499,19 @@ mod tests {
             assert!(mesh.vertices.iter().any(|v| v.color == color && v.params[1] == 0.0), "no cut face of {tissue:?}");
         }
         assert!(mesh.lines.len() > 100, "springs on the removed side are drawn");
+    }
+
+    #[test]
+    fn boundaries_inside_the_skin_tube_are_not_drawn_works() {
+        // Only the skin's own colour appears on lit surfaces (besides cut faces and the
+        // tool): the fat, muscle and bone boundaries inside the closed tube show through the
+        // section alone.
+        let (model, mesh) = limb_mesh(0.5, &MeshOptions::default());
+        assert!(model.grids.len() > 1, "the test needs nested boundaries");
+        for tissue in [Tissue::Fat, Tissue::Muscle, Tissue::Bone] {
+            let color = Material::of(tissue).linear_rgba();
+            assert!(mesh.vertices.iter().all(|v| v.color != color), "{tissue:?}'s surface is drawn");
+        }
+        assert!(mesh.vertices.iter().any(|v| v.color == Material::of(Tissue::Skin).linear_rgba()));
     }
 }

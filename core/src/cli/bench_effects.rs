@@ -96,6 +96,7 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
         ("16 point loads", Effects { loads: loads.clone(), ..Effects::default() }),
         ("16 drag handles", Effects { handles: handles.clone(), ..Effects::default() }),
         ("sphere tool", Effects { tool: Some(tool), ..Effects::default() }),
+        ("skin volume", Effects { skin_volume: Some(SKIN_VOLUME_PA), ..Effects::default() }),
         ("guard", Effects { guard: Some(GuardSettings::default()), ..Effects::default() }),
     ];
     let all_on = all_on_effects(&loads, &handles, tool);
@@ -133,8 +134,11 @@ pub fn bench(scene: &Scene, batch: Duration) -> Result<(), String> {
     Ok(())
 }
 
+/// Skin volume stiffness of the benchmark, Pa (the default scene's).
+const SKIN_VOLUME_PA: f64 = 5e4;
+
 /// Every effect at once: gravity, damping, bone (fixed and moving), the loads, handles and
-/// tool of the single-effect runs, and the guard.
+/// tool of the single-effect runs, the skin's volume term and the guard.
 fn all_on_effects(loads: &[PointLoad], handles: &[DragHandle], tool: SphereTool) -> Effects {
     Effects {
         gravity: Some([0.0, -9.81, 0.0]),
@@ -146,5 +150,6 @@ fn all_on_effects(loads: &[PointLoad], handles: &[DragHandle], tool: SphereTool)
         handles: handles.to_vec(),
         guard: Some(GuardSettings::default()),
         tool: Some(tool),
+        skin_volume: Some(SKIN_VOLUME_PA),
     }
 }

@@ -238,6 +238,7 @@ struct RawEffects {
     handles: Vec<RawHandle>,
     guard: Option<RawGuard>,
     tool: Option<RawTool>,
+    skin_volume: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -476,6 +477,9 @@ impl Scene {
         if e.viscous_damping.is_none() {
             viscous = None;
         }
+        if e.skin_volume.is_some_and(|k| !(k.is_finite() && k > 0.0)) {
+            return Err(value_err("effects.skin_volume", "must be finite and positive (Pa)"));
+        }
         let mut loads = Vec::new();
         for (i, l) in e.loads.iter().enumerate() {
             if !(finite3(&l.force) && l.ramp_s.is_finite() && l.ramp_s >= 0.0) {
@@ -561,6 +565,7 @@ impl Scene {
             handles,
             guard,
             tool: tool.and_then(|t| t.initial_sphere()),
+            skin_volume: e.skin_volume,
         };
         let r = raw.realtime;
         let overrun = match r.overrun.as_deref().unwrap_or("skip") {

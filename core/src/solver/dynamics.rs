@@ -72,6 +72,8 @@ pub struct Dynamics<T> {
     pub(crate) tool_marked: Vec<bool>,
     /// The point shell on the outer skin the tool meets (empty: node contact only).
     pub(crate) skin_shell: super::skin_contact::SkinShell,
+    /// The skin layer's tetrahedra (their volume term is on when `effects.skin_volume` is).
+    pub(crate) skin_volume: super::skin_volume::SkinVolume,
     /// Free nodes off the shell, which the tool pushes one by one.
     pub(crate) tool_nodes: Vec<u32>,
     /// What the tool felt at the last evaluation.
@@ -109,6 +111,7 @@ impl<T: Real> Dynamics<T> {
         let tool_nodes = (0..n as u32)
             .filter(|&i| free[i as usize] != T::ZERO && !skin_shell.on_shell.get(i as usize).copied().unwrap_or(false))
             .collect();
+        let skin_volume = super::skin_volume::SkinVolume::of_model(model);
         Self {
             pass,
             pool: WorkerPool::new(threads, params.pin_workers),
@@ -121,6 +124,7 @@ impl<T: Real> Dynamics<T> {
             tool_touched: Vec::with_capacity(n),
             tool_marked: vec![false; n],
             skin_shell,
+            skin_volume,
             tool_nodes,
             tool_feedback: Default::default(),
             counters: StageCounters::default(),
@@ -132,12 +136,15 @@ impl<T: Real> Dynamics<T> {
         self.mass.len()
     }
 
-    /// Whether loads or handles are on.
+    /// Whether loads, handles, the tool or the skin's volume term are on.
     fn has_external(&self) -> bool {
-        !self.effects.loads.is_empty() || !self.effects.handles.is_empty() || self.effects.tool.is_some()
+        !self.effects.loads.is_empty()
+            || !self.effects.handles.is_empty()
+            || self.effects.tool.is_some()
+            || self.effects.skin_volume.is_some()
     }
 
-    /// Writes loads and handle forces at state `(x, v)` and time `t` into the external array.
+    /// Writes loads, handle, tool and skin-volume forces at state `(x, v)` and time `t` into the external array.
     fn eval_external(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64) {
         let start = Instant::now();
         let ext = &mut self.external;
@@ -151,6 +158,11 @@ impl<T: Real> Dynamics<T> {
         }
         for h in &self.effects.handles {
             ext.set(h.node as usize, [T::ZERO; 3]);
+        }
+        if self.effects.skin_volume.is_some() {
+            for &i in &self.skin_volume.nodes {
+                ext.set(i as usize, [T::ZERO; 3]);
+            }
         }
         for l in &self.effects.loads {
             let scale = if l.ramp_s > 0.0 { (t / l.ramp_s).min(1.0) } else { 1.0 };
@@ -232,6 +244,9 @@ impl<T: Real> Dynamics<T> {
             }
             fb.in_contact = fb.nodes > 0;
             self.tool_feedback = fb;
+        }
+        if let Some(k) = self.effects.skin_volume {
+            self.skin_volume.add_forces(k, x, &mut self.external);
         }
         self.counters.external += start.elapsed();
     }

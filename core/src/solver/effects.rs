@@ -114,6 +114,9 @@ pub struct Effects {
     pub guard: Option<GuardSettings>,
     /// A spherical tool in contact with the tissue.
     pub tool: Option<SphereTool>,
+    /// Volume stiffness of the skin layer's tetrahedra, Pa (see `skin_volume.rs`: keeps the
+    /// thin skin from turning inside out under a press). Typical 5·10⁴.
+    pub skin_volume: Option<f64>,
 }
 
 impl Effects {
@@ -130,6 +133,7 @@ impl Effects {
             handles: Vec::new(),
             guard: Some(GuardSettings::default()),
             tool: None,
+            skin_volume: Some(5e4),
         }
     }
 
@@ -144,6 +148,9 @@ impl Effects {
         }
         if self.tool.is_some() {
             names.push("tool");
+        }
+        if self.skin_volume.is_some() {
+            names.push("skin volume");
         }
         names.push(if self.spring_damping { "springs+dashpots" } else { "springs" });
         if self.gravity.is_some() {

@@ -11,8 +11,10 @@
 //! damping α_v), `K` the tangent stiffness, `C_s` the spring dashpots, and `α`, `β` the
 //! Rayleigh coefficients. Each spring contributes `k_t uuᵀ + g (I − uuᵀ)` to `K`, with
 //! `k_t` the law's tangent and `g = max(F/L, 0)`: the geometric term is dropped under
-//! compression, which keeps `K` positive semi-definite and CG applicable. Held nodes are
-//! filtered out (`Δv = 0`). The matrix is never formed: products go spring by spring.
+//! compression, which keeps `K` positive semi-definite and CG applicable. The skin's volume
+//! term (when on) adds each tetrahedron's Gauss-Newton stiffness `k/|V₀| ∇V ∇Vᵀ`. Held nodes
+//! are filtered out (`Δv = 0`). The matrix is never formed: products go spring by spring and
+//! tetrahedron by tetrahedron.
 
 use super::dynamics::{Dynamics, State};
 use super::params::IntegrationParameters;
@@ -29,6 +31,8 @@ pub struct ImplicitSolver<T> {
     kt: Vec<T>,
     g: Vec<T>,
     c: Vec<T>,
+    /// Per skin tetrahedron: its volume gradient per corner (m²) times `√(k/|V₀|)`.
+    tet_grad: Vec<[[T; 3]; 4]>,
     a0: Vec3s<T>,
     rhs: Vec3s<T>,
     dv: Vec3s<T>,
@@ -71,6 +75,7 @@ impl<T: Real> ImplicitSolver<T> {
             kt: vec![T::ZERO; s],
             g: vec![T::ZERO; s],
             c: vec![T::ZERO; s],
+            tet_grad: vec![[[T::ZERO; 3]; 4]; dynamics.skin_volume.tets.len()],
             a0: z(),
             rhs: z(),
             dv: z(),
@@ -121,6 +126,13 @@ impl<T: Real> ImplicitSolver<T> {
             self.g[s] = (force * inv).max(T::ZERO);
             self.c[s] = if damp { c } else { T::ZERO };
         }
+        if let Some(k) = dynamics.effects.skin_volume {
+            for (t, out) in self.tet_grad.iter_mut().enumerate() {
+                let (grad, inv_v0) = dynamics.skin_volume.gradient(t, x);
+                let w = (k * inv_v0).sqrt();
+                *out = grad.map(|g| g.map(|c| T::from_f64(w * c)));
+            }
+        }
     }
 
     /// `y = cm·M p + Σ_springs [(cc·c + ck·k_t)(u·d)u + ck·g(d − (u·d)u)]`, `d = p_a − p_b`,
@@ -142,6 +154,20 @@ impl<T: Real> ImplicitSolver<T> {
             y.set(a, [ya[0] + t[0], ya[1] + t[1], ya[2] + t[2]]);
             y.set(b, [yb[0] - t[0], yb[1] - t[1], yb[2] - t[2]]);
         }
+        if dynamics.effects.skin_volume.is_some() {
+            for (tet, g) in dynamics.skin_volume.tets.iter().zip(&self.tet_grad) {
+                let mut gp = T::ZERO;
+                for (&i, gi) in tet.iter().zip(g) {
+                    let i = i as usize;
+                    gp += gi[0] * p.x[i] + gi[1] * p.y[i] + gi[2] * p.z[i];
+                }
+                let s = ck * gp;
+                for (&i, gi) in tet.iter().zip(g) {
+                    let yi = y.get(i as usize);
+                    y.set(i as usize, [yi[0] + s * gi[0], yi[1] + s * gi[1], yi[2] + s * gi[2]]);
+                }
+            }
+        }
         for i in 0..p.len() {
             let f = dynamics.free[i];
             y.set(i, y.get(i).map(|v| v * f));
@@ -161,6 +187,14 @@ impl<T: Real> ImplicitSolver<T> {
             for node in [self.ea[s] as usize, self.eb[s] as usize] {
                 let d = self.diag.get(node);
                 self.diag.set(node, [d[0] + t[0], d[1] + t[1], d[2] + t[2]]);
+            }
+        }
+        if dynamics.effects.skin_volume.is_some() {
+            for (tet, g) in dynamics.skin_volume.tets.iter().zip(&self.tet_grad) {
+                for (&i, gi) in tet.iter().zip(g) {
+                    let d = self.diag.get(i as usize);
+                    self.diag.set(i as usize, [0, 1, 2].map(|c| d[c] + ck * gi[c] * gi[c]));
+                }
             }
         }
         for hd in &dynamics.effects.handles {

@@ -143,6 +143,9 @@ fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuild
     }) {
         return Err(SimulationBuildError::BadEffectValue { effect: "tool" });
     }
+    if effects.skin_volume.is_some_and(|k| !(k >= 0.0 && k.is_finite())) {
+        return Err(SimulationBuildError::BadEffectValue { effect: "skin_volume" });
+    }
     if effects.guard.is_some_and(|g| !(g.max_speed > 0.0 && g.max_displacement > 0.0)) {
         return Err(SimulationBuildError::BadEffectValue { effect: "guard" });
     }
@@ -174,6 +177,10 @@ impl<T: Real> Simulation<T> {
             stability.gamma_max += h.damping / m;
         }
         let dynamics = Dynamics::new(model, &params, effects);
+        if let Some(k) = dynamics.effects.skin_volume {
+            let bound = dynamics.skin_volume.omega2_bound(model, k, dynamics.effects.bone);
+            stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
+        }
         let n = model.nodes.len();
         let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };
         let z = || Vec3s::zeros(n);

@@ -144,7 +144,8 @@ pub fn distance2_to_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3])
     dist2(p, add_scaled(add_scaled(a, ab, v), ac, w))
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+#[inline]
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -157,11 +158,13 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
     dot(d, d)
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+#[inline]
+pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+#[inline]
+pub(super) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
