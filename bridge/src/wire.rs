@@ -120,7 +120,8 @@ pub struct ToolCommand {
     pub buttons: u32,
     /// Always zero (explicit padding).
     pub reserved: u32,
-    /// Radius of the spherical tool tip, metres.
+    /// Radius of the spherical tool tip, metres; 0 uses the scene's. The core raises a radius
+    /// below the scene's `effects.tool.min_radius` to it (its skin contact is sampled for it).
     pub tool_radius_m: f64,
 }
 

@@ -111,3 +111,37 @@ fn tool_sliding_along_the_default_limb_always_meets_the_skin_works() {
     assert!(max > 0.03, "the press is felt: {forces:?}");
     assert!(forces.iter().all(|&f| f > 0.4 * max), "the skin pushes back all along: {forces:?}");
 }
+
+#[test]
+fn small_tool_needs_a_shell_sampled_for_its_radius_works() {
+    // A 3 mm tool pressed 1.5 mm into the 40 mm grid at places between the nodes. On a shell
+    // sampled for a 12 mm tool (samples up to 6 mm apart) its 2.6 mm contact disk meets few
+    // samples or none, and the force is far from the closed form; on one sampled for 3 mm
+    // (the scene's `min_radius`, which the core raises smaller commands to) it matches.
+    let (n, spacing) = (5u32, 0.04);
+    let model = flat_skin(n, spacing);
+    let (r, k, depth): (f64, f64, f64) = (0.003, 300.0, 0.0015);
+    let kappa = k / (spacing * spacing);
+    let h = r - depth;
+    let expected = std::f64::consts::PI * kappa * h * depth * depth;
+    let mut worst = [0.0_f64; 2];
+    for (which, shell_radius) in [0.003, 0.012].into_iter().enumerate() {
+        let parked = SphereTool { radius: shell_radius, stiffness: k, start: [1.0, 1.0, 1.0], velocity: [0.0; 3] };
+        let effects = Effects { bone: true, tool: Some(parked), ..Effects::default() };
+        let mut sim = Simulation::<f64>::new(&model, IntegrationParameters::default(), effects).unwrap();
+        for (u, v) in [(0.5, 0.5), (0.37, 0.61), (0.13, 0.29), (0.71, 0.23), (0.5, 0.05)] {
+            let centre = [(1.0 + u) * spacing, h, (2.0 + v) * spacing];
+            sim.effects_mut().tool = Some(SphereTool { radius: r, stiffness: k, start: centre, velocity: [0.0; 3] });
+            sim.step();
+            let f = sim.tool_feedback().force[1];
+            let rel = (f - expected) / expected;
+            eprintln!(
+                "shell for {shell_radius} m, tool at ({u}, {v}) of a cell: {f:.5} N, closed form {expected:.5} N ({:+.1} %)",
+                100.0 * rel
+            );
+            worst[which] = worst[which].max(rel.abs());
+        }
+    }
+    assert!(worst[0] < 0.05, "sampled for the tool: worst {:.1} %", 100.0 * worst[0]);
+    assert!(worst[1] > 0.2, "sampled for a 12 mm tool: worst {:.1} %", 100.0 * worst[1]);
+}

@@ -41,6 +41,8 @@ pub struct HapticLinkCounts {
     pub commands: u64,
     /// Tool commands refused (non-finite or implausible).
     pub bad_commands: u64,
+    /// Commands whose radius was below the scene's `min_radius` and was raised to it.
+    pub radius_raised: u64,
     /// Times the tool was parked because commands stopped.
     pub parked: u64,
     /// Grasps made (button 0 pressed with nodes in reach).
@@ -91,7 +93,8 @@ pub fn effects_for_build(scene: &Scene) -> Effects {
         && effects.tool.is_none()
     {
         effects.tool = Some(SphereTool {
-            radius: t.radius,
+            // The skin's point shell is sampled for the radius the tool is built with.
+            radius: t.shell_radius(),
             stiffness: t.stiffness,
             start: [MAX_COORDINATE_M; 3],
             velocity: [0.0; 3],
@@ -135,7 +138,9 @@ impl HapticLink {
                 let c = *sample.message();
                 if command_is_sane(&c) {
                     self.centre = c.position;
-                    self.radius = if c.tool_radius_m > 0.0 { c.tool_radius_m } else { self.settings.radius };
+                    let (radius, raised) = self.settings.commanded_radius(c.tool_radius_m);
+                    self.radius = radius;
+                    self.counts.radius_raised += u64::from(raised);
                     self.buttons = c.buttons;
                     self.last_command_ns = Some(now);
                     self.counts.commands += 1;

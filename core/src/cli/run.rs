@@ -212,8 +212,8 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         if let Some(h) = &p.haptic {
             let c = h.counts;
             println!(
-                "haptic link: {} tool commands applied, {} refused (non-finite or implausible), parked {} time(s), {} grasp(s), {} feedback messages ({} non-finite replaced by no-contact), {} port failures",
-                c.commands, c.bad_commands, c.parked, c.grasps, c.feedback, c.bad_feedback, c.failures
+                "haptic link: {} tool commands applied, {} refused (non-finite or implausible), {} with a radius raised to the scene's min_radius, parked {} time(s), {} grasp(s), {} feedback messages ({} non-finite replaced by no-contact), {} port failures",
+                c.commands, c.bad_commands, c.radius_raised, c.parked, c.grasps, c.feedback, c.bad_feedback, c.failures
             );
         }
     }

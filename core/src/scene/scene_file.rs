@@ -251,6 +251,7 @@ struct RawTool {
     velocity: Option<[f64; 3]>,
     device_origin: Option<[f64; 3]>,
     timeout_ms: Option<f64>,
+    min_radius: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -533,6 +534,9 @@ impl Scene {
                 }
                 let source = match t.source.as_str() {
                     "scripted" => {
+                        if t.min_radius.is_some() {
+                            return Err(value_err("effects.tool.min_radius", "only for source = \"haptics\""));
+                        }
                         let start = t.start.ok_or_else(|| value_err("effects.tool.start", "required when scripted"))?;
                         let velocity = t.velocity.unwrap_or([0.0; 3]);
                         if !(finite3(&start) && finite3(&velocity)) {
@@ -548,7 +552,11 @@ impl Scene {
                         if !(finite3(&device_origin) && timeout_s.is_finite() && timeout_s > 0.0) {
                             return Err(value_err("effects.tool", "device_origin finite and timeout_ms positive"));
                         }
-                        ToolSource::Haptics { device_origin, timeout_s }
+                        let min_radius = t.min_radius.unwrap_or(t.radius);
+                        if !(min_radius.is_finite() && min_radius > 0.0 && min_radius <= t.radius) {
+                            return Err(value_err("effects.tool.min_radius", "finite, positive and at most radius"));
+                        }
+                        ToolSource::Haptics { device_origin, timeout_s, min_radius }
                     }
                     _ => return Err(value_err("effects.tool.source", "\"scripted\" or \"haptics\"")),
                 };
@@ -691,6 +699,22 @@ mod tests {
     }
 
     #[test]
+    fn haptic_tool_radius_is_raised_to_min_radius_works() {
+        let haptics = "[effects.tool]\nsource = \"haptics\"\nradius = 0.012\nstiffness = 300.0\ndevice_origin = [0.0, 0.0, 0.0]\n";
+        // Without min_radius the shell is sampled for the scene's radius and nothing smaller
+        // is allowed; a command of 0 means the scene's radius.
+        let tool = Scene::from_toml_str(haptics, None).unwrap().tool.unwrap();
+        assert_eq!(tool.shell_radius(), 0.012);
+        assert_eq!(tool.commanded_radius(0.0), (0.012, false));
+        assert_eq!(tool.commanded_radius(0.02), (0.02, false));
+        assert_eq!(tool.commanded_radius(0.004), (0.012, true));
+        let tool = Scene::from_toml_str(&format!("{haptics}min_radius = 0.003\n"), None).unwrap().tool.unwrap();
+        assert_eq!(tool.shell_radius(), 0.003);
+        assert_eq!(tool.commanded_radius(0.004), (0.004, false));
+        assert_eq!(tool.commanded_radius(0.001), (0.003, true));
+    }
+
+    #[test]
     fn scene_tool_bad_values_name_the_field_fails() {
         let cases = [
             ("source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.device_origin"),
@@ -698,6 +722,18 @@ mod tests {
             ("source = \"wand\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.source"),
             ("source = \"scripted\"\nradius = -0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
             ("source = \"scripted\"\nradius = nan\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.02\n",
+                "effects.tool.min_radius",
+            ),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.0\n",
+                "effects.tool.min_radius",
+            ),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\nmin_radius = 0.005\n",
+                "effects.tool.min_radius",
+            ),
         ];
         for (body, field) in cases {
             let text = format!("[effects.tool]\n{body}");

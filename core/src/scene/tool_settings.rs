@@ -19,13 +19,19 @@ pub enum ToolSource {
         device_origin: [f64; 3],
         /// Commands older than this park the tool, s. Default 0.1.
         timeout_s: f64,
+        /// Smallest radius a command may give the sphere, m. The skin's point shell is
+        /// sampled for it (samples at most half of it apart), so a smaller sphere could pass
+        /// between the samples: a command below it is raised to it (and counted). Default: the
+        /// scene's `radius`. Samples, and their cost, grow as `(radius / min_radius)²`.
+        min_radius: f64,
     },
 }
 
 /// The scene's `[effects.tool]` table.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToolSettings {
-    /// Sphere radius, m (a haptics command may carry its own).
+    /// Sphere radius, m (a haptics command may carry its own, down to the source's
+    /// `min_radius`).
     pub radius: f64,
     /// Penalty stiffness per node in contact, N/m.
     pub stiffness: f64,
@@ -43,5 +49,21 @@ impl ToolSettings {
             }
             ToolSource::Haptics { .. } => None,
         }
+    }
+
+    /// The radius the skin's point shell must be sampled for: the smallest the tool can take.
+    pub fn shell_radius(&self) -> f64 {
+        match self.source {
+            ToolSource::Scripted { .. } => self.radius,
+            ToolSource::Haptics { min_radius, .. } => min_radius,
+        }
+    }
+
+    /// The radius of a sphere commanded with `commanded` m (0: the scene's), and whether it
+    /// was raised to the smallest the skin's point shell supports.
+    pub fn commanded_radius(&self, commanded: f64) -> (f64, bool) {
+        let wanted = if commanded > 0.0 { commanded } else { self.radius };
+        let smallest = self.shell_radius();
+        if wanted < smallest { (smallest, true) } else { (wanted, false) }
     }
 }

@@ -106,7 +106,8 @@ impl<T: Real> Dynamics<T> {
         } else {
             Vec::new()
         };
-        // Sampled for the tool's radius at construction (1 cm without a tool yet).
+        // Sampled for the tool's radius at construction (1 cm without a tool yet); a haptics
+        // scene builds with its `min_radius`, the smallest a command may set.
         let skin_shell = super::skin_contact::SkinShell::of_model(model, effects.tool.map_or(0.01, |t| t.radius));
         let tool_nodes = (0..n as u32)
             .filter(|&i| free[i as usize] != T::ZERO && !skin_shell.on_shell.get(i as usize).copied().unwrap_or(false))
@@ -226,7 +227,7 @@ impl<T: Real> Dynamics<T> {
                 let k_sample = tool.stiffness * tri.sample_weight;
                 // The samples' pushes, summed per node of the triangle, applied once.
                 let mut on_nodes = [[0.0_f64; 3]; 3];
-                super::skin_contact::for_each_sample(tri.subdivision, |w| {
+                super::skin_contact::for_each_sample_near(tri.subdivision, &v, c, tool.radius, |w| {
                     let p = [0, 1, 2].map(|k| w[0] * v[0][k] + w[1] * v[1][k] + w[2] * v[2][k]);
                     if let Some(f) = contact(p, k_sample, &mut fb) {
                         for (acc, wj) in on_nodes.iter_mut().zip(w) {

@@ -1,7 +1,7 @@
 //! The tool's contact with the skin *surface*, not only its nodes: a point shell on the outer
 //! skin's triangles (the Voxmap-PointShell idea, McNeely et al. 1999). Each triangle carries
 //! `m²` sample points, the centroids of its `m × m` sub-triangles, spaced at most half the tool's
-//! radius apart, so a sphere pressing anywhere on the skin meets samples; a node-only contact
+//! (smallest) radius apart, so a sphere pressing anywhere on the skin meets samples; a node-only contact
 //! lets the tool slip between nodes of a coarse grid (40 mm rows on the default limb against a
 //! 12 mm tool) and sink through the skin with no force.
 //!
@@ -17,8 +17,11 @@ use crate::model::Model;
 /// The name of the outer skin surface the generator and the layered block write.
 pub const SKIN_SURFACE: &str = "skin_outer";
 
-/// The largest sub-division of a triangle's sides (`m`): `m²` samples per triangle.
-const MAX_SUBDIVISION: u32 = 16;
+/// The largest sub-division of a triangle's sides (`m`): `m²` samples per triangle. A contact
+/// visits only the samples under the sphere ([`for_each_sample_near`]), so a fine shell costs
+/// in proportion to the contact's area, not the triangle's: 64 keeps samples at most half a
+/// 3 mm tool's radius apart on the default limb's 40 mm cells.
+const MAX_SUBDIVISION: u32 = 64;
 
 /// One skin triangle's point shell.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,6 +105,44 @@ pub fn for_each_sample(m: u32, mut f: impl FnMut([f64; 3])) {
         for j in 0..(m - i).saturating_sub(1) {
             let (u, v) = ((f64::from(i) + 2.0 / 3.0) * inv, (f64::from(j) + 2.0 / 3.0) * inv);
             f([u, v, 1.0 - u - v]);
+        }
+    }
+}
+
+/// As [`for_each_sample`], for only the samples of triangle `v` that can lie within `radius`
+/// of `centre` (a box in barycentric coordinates around the centre's projection, `radius`
+/// times each coordinate's gradient wide), plus possibly a few more. Falls back to every
+/// sample when the triangle is degenerate or a value is not finite.
+pub fn for_each_sample_near(m: u32, v: &[[f64; 3]; 3], centre: [f64; 3], radius: f64, mut f: impl FnMut([f64; 3])) {
+    // p = u v0 + w v1 + (1 − u − w) v2: solve the normal equations for (u, w) of the centre's
+    // projection; the inverse Gram matrix's diagonal is |∇u|², |∇w|² in the plane.
+    let (e0, e1, d) = (sub(v[0], v[2]), sub(v[1], v[2]), sub(centre, v[2]));
+    let (g00, g01, g11) = (dot(e0, e0), dot(e0, e1), dot(e1, e1));
+    let det = g00 * g11 - g01 * g01;
+    let (b0, b1) = (dot(e0, d), dot(e1, d));
+    let (u, w) = ((g11 * b0 - g01 * b1) / det, (g00 * b1 - g01 * b0) / det);
+    let (du, dw) = (radius * (g11 / det).sqrt(), radius * (g00 / det).sqrt());
+    let mf = f64::from(m);
+    // The indices i with (i + offset) / m in [lo, hi], within 0..m.
+    let range = |lo: f64, hi: f64, offset: f64| {
+        let first = (mf * lo - offset).ceil().max(0.0);
+        let last = (mf * hi - offset).floor().min(mf - 1.0);
+        (first <= last).then_some(first as u32..=last as u32)
+    };
+    if !(det > 1e-12 * g00 * g11 && [u, w, du, dw].iter().all(|x| x.is_finite())) {
+        for_each_sample(m, f);
+        return;
+    }
+    let inv = 1.0 / mf;
+    // Upward sub-triangles (centroid offset 1/3) have j < m − i, downward ones (2/3) j < m − i − 1.
+    for (offset, below_edge) in [(1.0 / 3.0, 1), (2.0 / 3.0, 2)] {
+        let (Some(is), Some(js)) = (range(u - du, u + du, offset), range(w - dw, w + dw, offset)) else { continue };
+        for i in is {
+            let Some(j_last) = (m - i).checked_sub(below_edge) else { continue };
+            for j in *js.start()..=(*js.end()).min(j_last) {
+                let (a, b) = ((f64::from(i) + offset) * inv, (f64::from(j) + offset) * inv);
+                f([a, b, 1.0 - a - b]);
+            }
         }
     }
 }
@@ -205,6 +246,48 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn samples_near_a_sphere_are_all_found_works() {
+        // Every sample within the radius (by visiting them all) is visited by the windowed
+        // sampler, exactly once; and it visits far fewer when the sphere is small.
+        let v = [[0.0, 0.0, 0.0], [0.04, 0.003, 0.0], [0.01, -0.002, 0.035]];
+        let mut state = 99u64;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let point = |w: [f64; 3]| [0, 1, 2].map(|k| w[0] * v[0][k] + w[1] * v[1][k] + w[2] * v[2][k]);
+        let (mut visited, mut total) = (0usize, 0usize);
+        for case in 0..400 {
+            let m = [1, 2, 7, 16, 64][case % 5];
+            let radius = 0.001 + 0.011 * rand();
+            let centre = [0.06 * rand() - 0.01, 0.01 * rand() - 0.005, 0.05 * rand() - 0.01];
+            let inside = |w: [f64; 3]| dist2(point(w), centre) < radius * radius;
+            let key = |w: [f64; 3]| ((w[0] * 3e3).round() as i64, (w[1] * 3e3).round() as i64);
+            let mut all = Vec::new();
+            for_each_sample(m, |w| all.push(key(w)));
+            let mut wanted = Vec::new();
+            for_each_sample(m, |w| {
+                if inside(w) {
+                    wanted.push(key(w));
+                }
+            });
+            let mut near = Vec::new();
+            for_each_sample_near(m, &v, centre, radius, |w| near.push(key(w)));
+            let mut unique = near.clone();
+            unique.sort_unstable();
+            unique.dedup();
+            assert_eq!(unique.len(), near.len(), "m = {m}: a sample visited twice");
+            assert!(near.iter().all(|k| all.contains(k)), "m = {m}: a point that is not a sample");
+            assert!(wanted.iter().all(|k| near.contains(k)), "m = {m}, r = {radius}, {centre:?}: a sample missed");
+            visited += near.len();
+            total += all.len();
+        }
+        assert!(visited * 4 < total, "windowing visits {visited} of {total} samples");
     }
 
     #[test]
