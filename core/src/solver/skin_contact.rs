@@ -12,7 +12,7 @@
 //! neighbourhood is in contact feels at most the tool's per-node `stiffness`: the critical time
 //! step's allowance for the tool (`stiffness / m_min`) still holds.
 
-use crate::model::Model;
+use crate::model::{Model, Surface};
 
 /// The name of the outer skin surface the generator and the layered block write.
 pub const SKIN_SURFACE: &str = "skin_outer";
@@ -43,13 +43,27 @@ pub struct SkinShell {
     pub on_shell: Vec<bool>,
 }
 
+/// `model`'s outer skin ([`SKIN_SURFACE`]) and, per node, whether it is a corner of one of
+/// its triangles (triangles naming a node out of range are skipped); `None` without one.
+pub(super) fn outer_skin(model: &Model) -> Option<(&Surface, Vec<bool>)> {
+    let n = model.nodes.len();
+    let skin = model.surfaces.iter().find(|s| s.name == SKIN_SURFACE)?;
+    let mut on_skin = vec![false; n];
+    for t in skin.triangles.iter().filter(|t| t.iter().all(|&i| (i as usize) < n)) {
+        for &i in t {
+            on_skin[i as usize] = true;
+        }
+    }
+    Some((skin, on_skin))
+}
+
 impl SkinShell {
     /// The shell of `model`'s [`SKIN_SURFACE`] for a sphere of `radius` m (samples at most
     /// `radius / 2` apart); empty (node contact only) when the model has no such surface or it
     /// has no area. A sample's stiffness is `weight ×` the tool's per-node stiffness.
     pub fn of_model(model: &Model, radius: f64) -> Self {
         let n = model.nodes.len();
-        let Some(skin) = model.surfaces.iter().find(|s| s.name == SKIN_SURFACE) else {
+        let Some((skin, on_shell)) = outer_skin(model) else {
             return Self::default();
         };
         let p = &model.nodes.position;
@@ -81,12 +95,6 @@ impl SkinShell {
                 ShellTriangle { nodes, subdivision, sample_weight: pressure * area / samples }
             })
             .collect();
-        let mut on_shell = vec![false; n];
-        for t in skin.triangles.iter().filter(|t| valid(t)) {
-            for &i in t {
-                on_shell[i as usize] = true;
-            }
-        }
         Self { triangles, on_shell }
     }
 }

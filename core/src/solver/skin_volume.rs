@@ -20,7 +20,7 @@
 //! surface and the node, off that surface, spring-connected to all three corners and nearest
 //! the triangle's centroid (the generator's skin-bottom mass of that triangle).
 
-use super::skin_contact::{SKIN_SURFACE, cross, dot, sub};
+use super::skin_contact::{cross, dot, outer_skin, sub};
 use super::vec3s::Vec3s;
 use crate::model::{Model, NodeKind};
 use crate::real::Real;
@@ -40,21 +40,16 @@ pub struct SkinVolume {
 }
 
 impl SkinVolume {
-    /// The tetrahedra of `model`'s outer skin ([`SKIN_SURFACE`]); empty when the model has no
-    /// such surface. Triangles with no bottom node, or whose tetrahedron is flat (volume under
-    /// 10⁻⁶ of its longest edge cubed), get none.
+    /// The tetrahedra of `model`'s outer skin
+    /// ([`SKIN_SURFACE`](super::skin_contact::SKIN_SURFACE)); empty when the model has no such
+    /// surface. Triangles with no bottom node, or whose tetrahedron is flat (volume under 10⁻⁶
+    /// of its longest edge cubed), get none.
     pub fn of_model(model: &Model) -> Self {
         let n = model.nodes.len();
-        let Some(skin) = model.surfaces.iter().find(|s| s.name == SKIN_SURFACE) else {
+        let Some((skin, on_skin)) = outer_skin(model) else {
             return Self::default();
         };
         let p = &model.nodes.position;
-        let mut on_skin = vec![false; n];
-        for t in &skin.triangles {
-            for &i in t.iter().filter(|&&i| (i as usize) < n) {
-                on_skin[i as usize] = true;
-            }
-        }
         // Neighbours of the skin's nodes through springs.
         let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
         let s = &model.springs;
@@ -273,7 +268,7 @@ mod tests {
     fn default_limb_has_one_tetrahedron_per_skin_triangle_works() {
         let model = crate::scene::Scene::builtin_default().build_model().unwrap();
         let sv = SkinVolume::of_model(&model);
-        let skin = model.surfaces.iter().find(|s| s.name == SKIN_SURFACE).unwrap();
+        let skin = model.surfaces.iter().find(|s| s.name == super::super::skin_contact::SKIN_SURFACE).unwrap();
         assert_eq!(sv.tets.len(), skin.triangles.len());
         for (tet, v0) in sv.tets.iter().zip(&sv.rest_volume) {
             // The bottom node lies in the skin layer, beneath its triangle, about one skin
