@@ -382,6 +382,7 @@ impl<C: Clock> FixedRateLoop<C> {
                         self.skipped_periods += missed;
                         skipped += missed;
                         skipped_before = missed;
+                        observer.on_skip(missed);
                     }
                     OverrunPolicy::CatchUp => late_start = true,
                 }

@@ -376,6 +376,14 @@ impl DeadlineMonitor {
         self.send_probe.take_ns();
     }
 
+    /// Counts `periods` skipped grid slots. This is what
+    /// [`TickObserver::on_skip`] calls; [`record`](Self::record) does not
+    /// count [`TickSample::skipped_before`], so a skip that ends a run (a
+    /// stall crossing a report boundary) is counted too, and only once.
+    pub fn record_skip(&mut self, periods: u64) {
+        self.skipped_periods += periods;
+    }
+
     /// Records one tick. This is what [`TickObserver::on_tick`] calls.
     pub fn record(&mut self, s: &TickSample) {
         let lateness_ns = s.info.lateness_ns;
@@ -393,7 +401,6 @@ impl DeadlineMonitor {
         self.budget_misses += u64::from(budget_miss);
         self.deadline_misses += u64::from(deadline_miss);
         self.misses += u64::from(budget_miss || deadline_miss);
-        self.skipped_periods += s.skipped_before;
         self.caught_up_ticks += u64::from(s.caught_up);
 
         self.worst.offer(WorstTick { tick: s.info.tick, lateness_ns, compute_ns: s.compute_ns });
@@ -452,6 +459,10 @@ fn summary_json(summary: &MonitorSummary) -> String {
 impl TickObserver for DeadlineMonitor {
     fn on_tick(&mut self, sample: &TickSample) {
         self.record(sample);
+    }
+
+    fn on_skip(&mut self, periods: u64) {
+        self.record_skip(periods);
     }
 }
 

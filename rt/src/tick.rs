@@ -40,7 +40,9 @@ pub struct TickSample {
     /// `info.wake_ns` minus the previous tick's wake time, ns; `None` for the
     /// first tick of the loop.
     pub actual_period_ns: Option<u64>,
-    /// Periods skipped just before this tick ([`OverrunPolicy::Skip`](crate::OverrunPolicy::Skip)).
+    /// Periods skipped just before this tick ([`OverrunPolicy::Skip`](crate::OverrunPolicy::Skip)),
+    /// in the same run call. Counts belong to [`TickObserver::on_skip`], which
+    /// also hears of skips that end a run (a stall crossing the run's window).
     pub skipped_before: u64,
     /// `true` if this tick's deadline had already passed when the loop came to
     /// wait for it, so it ran at once ([`OverrunPolicy::CatchUp`](crate::OverrunPolicy::CatchUp)).
@@ -56,6 +58,15 @@ pub struct TickSample {
 pub trait TickObserver {
     /// Called once per tick, after the body returned.
     fn on_tick(&mut self, sample: &TickSample);
+
+    /// Called when the loop drops `periods` missed grid slots
+    /// ([`OverrunPolicy::Skip`](crate::OverrunPolicy::Skip)), at the moment it
+    /// skips them: before the tick that follows, or before the run returns
+    /// when the realigned deadline falls outside the run's window. Every
+    /// skipped slot is reported here exactly once. Default: nothing.
+    fn on_skip(&mut self, periods: u64) {
+        let _ = periods;
+    }
 }
 
 /// The no-op observer: records nothing.
@@ -66,5 +77,9 @@ impl TickObserver for () {
 impl<T: TickObserver + ?Sized> TickObserver for &mut T {
     fn on_tick(&mut self, sample: &TickSample) {
         (**self).on_tick(sample);
+    }
+
+    fn on_skip(&mut self, periods: u64) {
+        (**self).on_skip(periods);
     }
 }

@@ -200,3 +200,38 @@ fn monitor_zero_range_fails() {
     let err = DeadlineMonitor::try_new(MonitorConfig::for_period_ns(P).with_max_trackable_ns(1));
     assert!(err.is_err());
 }
+
+/// Runs `seconds` one-second windows at 1 kHz (Skip), as `lamina run` reports once a second,
+/// with one tick computing for `stall_ns` and the others 0.1 ms; returns the summary.
+fn chunked_with_stall(stall_tick: u64, stall_ns: u64, seconds: u64) -> MonitorSummary {
+    let clock = FakeClock::new(0).with_compute(move |t| if t == stall_tick { stall_ns } else { P / 10 });
+    let mut lp = FixedRateLoop::try_with_period_ns(clock.clone(), P, OverrunPolicy::Skip).unwrap();
+    let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(P));
+    let mut skipped_by_runs = 0;
+    for _ in 0..seconds {
+        let run = lp.run(RunLimit::duration_ns(1_000_000_000), &mut monitor, |i| {
+            clock.spend(i.tick);
+            ControlFlow::Continue(())
+        });
+        skipped_by_runs += run.skipped_periods;
+    }
+    let s = monitor.summary();
+    assert_eq!(s.skipped_periods, skipped_by_runs);
+    assert_eq!(s.skipped_periods, lp.skipped_periods());
+    // Every grid slot before the next deadline was either run or skipped.
+    assert_eq!(s.ticks + s.skipped_periods, lp.next_deadline_ns().unwrap() / P);
+    s
+}
+
+#[test]
+fn monitor_stall_across_report_boundary_counts_every_skipped_period_works() {
+    // A tick that computes for S periods ends S - 1 periods after its deadline passed: the
+    // S - 1 slots due during the stall are skipped (the next one is due exactly when it ends).
+    // Stall at tick 700 of the first second: 0.5 s and 1.5 s both cross the 1 s boundary.
+    // 300 ms ends exactly on the boundary; 200 ms stays inside the first second.
+    for (stall_ms, expected) in [(500u64, 499u64), (1_500, 1_499), (300, 299), (200, 199)] {
+        let s = chunked_with_stall(700, stall_ms * P, 4);
+        assert_eq!(s.skipped_periods, expected, "stall {stall_ms} ms");
+        assert_eq!(s.misses, 1, "stall {stall_ms} ms");
+    }
+}
