@@ -1,6 +1,11 @@
 //! The step loop allocates nothing after warm-up: a counting global allocator watches 1000
 //! frames of every integrator, on one thread and on two, with every effect on, through
-//! guard rollbacks.
+//! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
+//!
+//! The allocator counts every thread of the process, so this file runs without libtest's
+//! harness (`harness = false` in `core/Cargo.toml`): the harness's own thread allocates when
+//! it prints "has been running for over 60 seconds", which a loaded machine reaches, and was
+//! counted as the step's. Here the only threads are this one and the solver's workers.
 
 use lamina_core::scene::Scene;
 use lamina_core::solver::{DragHandle, GuardSettings, IntegratorKind, PointLoad, Simulation, SphereTool};
@@ -37,7 +42,13 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-#[test]
+fn main() {
+    // `cargo test` passes harness options (filters, --test-threads, ...): there is one check.
+    print!("test step_loop_allocates_nothing_after_warm_up_works ... ");
+    step_loop_allocates_nothing_after_warm_up_works();
+    println!("ok");
+}
+
 fn step_loop_allocates_nothing_after_warm_up_works() {
     let scene = Scene::builtin_default();
     let model = scene.build_model().unwrap();
@@ -68,6 +79,11 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
                 if k == 500 {
                     // Corrupt the state: the guard must roll back, without allocating.
                     sim.state_mut().v.x[7] = f32::NAN;
+                }
+                if k % 250 == 100 {
+                    // Idle for ten times the pool's spin time: the workers park, and the
+                    // next step wakes them (a worker's first park falls in the window).
+                    std::thread::sleep(std::time::Duration::from_millis(2));
                 }
                 sim.step();
             }
