@@ -7,18 +7,16 @@
 use std::fmt;
 use std::path::PathBuf;
 
+use lamina_input::FileReadError;
+
 use crate::units::Units;
 
 /// Why a mesh file could not be loaded (see [`crate::load()`]).
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshLoadError {
-    /// The file could not be opened or read.
-    Io {
-        /// File.
-        path: PathBuf,
-        /// OS error text.
-        message: String,
-    },
+    /// The file could not be read: missing, not a regular file (a FIFO, a device), larger
+    /// than [`MESH_FILE`](crate::raw::MESH_FILE)'s cap, or more than the memory available.
+    Read(FileReadError),
     /// The file name does not end in `.stl` or `.obj` (case-insensitive).
     UnsupportedFormat {
         /// File.
@@ -44,6 +42,16 @@ pub enum MeshLoadError {
         path: PathBuf,
         /// 0-based triangle index.
         triangle: u64,
+    },
+    /// A binary STL vertex has a coordinate beyond
+    /// ±[`MAX_ABS_COORDINATE`](crate::raw::MAX_ABS_COORDINATE).
+    StlCoordinateTooLarge {
+        /// File.
+        path: PathBuf,
+        /// 0-based triangle index.
+        triangle: u64,
+        /// The coordinate, file units.
+        value: f64,
     },
     /// An ASCII STL is malformed: unexpected keyword, bad number, missing `endloop`, ...
     StlSyntax {
@@ -86,6 +94,21 @@ pub enum MeshLoadError {
         path: PathBuf,
         /// Degenerate triangles that were removed.
         degenerate_removed: usize,
+        /// Weld tolerance used, file units.
+        weld_tolerance: f64,
+    },
+    /// One vertex lies so far from the others that it would set the units and the weld
+    /// tolerance on its own (a stray vertex: `1000 ×` farther from the vertices' median
+    /// point than the median vertex is).
+    OutlierVertex {
+        /// File.
+        path: PathBuf,
+        /// Where it is: `"vertex 17"` (OBJ, the 17th `v` line) or `"triangle 412"` (STL).
+        location: String,
+        /// Its position, file units.
+        position: [f64; 3],
+        /// Its distance from the median point over the median vertex's distance.
+        ratio: f64,
     },
     /// The surface has holes: edges used by only one triangle. Allowed with
     /// [`crate::LoadOptions::allow_open`].
@@ -133,7 +156,7 @@ fn p(v: [f64; 3]) -> String {
 impl fmt::Display for MeshLoadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::Read(e) => e.fmt(f),
             Self::UnsupportedFormat { path } => {
                 write!(f, "{}: unsupported mesh format (expected a .stl or .obj file)", path.display())
             }
@@ -149,6 +172,12 @@ impl fmt::Display for MeshLoadError {
             Self::StlNonFinite { path, triangle } => {
                 write!(f, "{}: binary STL triangle {triangle} has a NaN or infinite coordinate", path.display())
             }
+            Self::StlCoordinateTooLarge { path, triangle, value } => write!(
+                f,
+                "{}: binary STL triangle {triangle} has coordinate {value:e}, beyond ±{:e}, the largest a mesh file may hold",
+                path.display(),
+                crate::raw::MAX_ABS_COORDINATE
+            ),
             Self::StlSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
             Self::ObjSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
             Self::ObjIndexOutOfRange { path, line, index, vertex_count } => write!(
@@ -159,9 +188,22 @@ impl fmt::Display for MeshLoadError {
             Self::TooLarge { path } => {
                 write!(f, "{}: too many vertices or triangles for 32-bit indices", path.display())
             }
-            Self::Empty { path, degenerate_removed } => {
-                write!(f, "{}: no triangles left ({degenerate_removed} degenerate triangles removed)", path.display())
+            Self::Empty { path, degenerate_removed: 0, .. } => {
+                write!(f, "{}: the file has no triangles", path.display())
             }
+            Self::Empty { path, degenerate_removed, weld_tolerance } => write!(
+                f,
+                "{}: no triangles left: welding vertices closer than {weld_tolerance:e} file units made all \
+                 {degenerate_removed} triangles degenerate (two corners on one vertex)",
+                path.display()
+            ),
+            Self::OutlierVertex { path, location, position, ratio } => write!(
+                f,
+                "{}: {location} at {} lies {ratio:.3e} times farther from the surface's median point than the \
+                 median vertex; a stray vertex would set the units and weld tolerance on its own: remove it",
+                path.display(),
+                p(*position)
+            ),
             Self::OpenSurface { path, boundary_edges, holes, first_edge, units } => write!(
                 f,
                 "{}: surface is not closed: {holes} hole(s), {boundary_edges} boundary edge(s) used by \
@@ -193,7 +235,20 @@ impl fmt::Display for MeshLoadError {
     }
 }
 
-impl std::error::Error for MeshLoadError {}
+impl std::error::Error for MeshLoadError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Read(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<FileReadError> for MeshLoadError {
+    fn from(e: FileReadError) -> Self {
+        Self::Read(e)
+    }
+}
 
 /// Why a mesh file could not be written.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,24 +1,29 @@
 //! Loading a mesh file into a clean, closed, outward [`TriMesh`] in metres.
 //!
 //! How it works, in order:
-//! 1. read the file and parse it by extension (`.stl`: binary or ASCII, see [`crate::stl`];
-//!    `.obj`: see [`crate::obj`]), giving vertices in file units;
-//! 2. choose the units: [`LoadOptions::units`], or inferred by [`Units::infer`] from the
+//! 1. read the file, only when it is a regular file within [`MESH_FILE`]'s cap (1 GiB) and
+//!    the memory available, and parse it by extension (`.stl`: binary or ASCII, see
+//!    [`crate::stl`]; `.obj`: see [`crate::obj`]), giving vertices in file units, each
+//!    coordinate within ±[`MAX_ABS_COORDINATE`](crate::raw::MAX_ABS_COORDINATE);
+//! 2. refuse a stray vertex, one more than [`OUTLIER_RATIO`] times farther from the median
+//!    point than the median vertex ([`MeshLoadError::OutlierVertex`]): it would set the
+//!    units and the weld tolerance below on its own;
+//! 3. choose the units: [`LoadOptions::units`], or inferred by [`Units::infer`] from the
 //!    bounding-box diagonal (above 10 file units: millimetres, otherwise metres);
-//! 3. weld coincident vertices within [`LoadOptions::weld_tolerance`] (file units; default
+//! 4. weld coincident vertices within [`LoadOptions::weld_tolerance`] (file units; default
 //!    10⁻⁶ × bounding-box diagonal), drop the triangles welding collapses (two corners on one
 //!    vertex) and the vertices no triangle uses;
-//! 4. check the edges: holes and non-manifold edges are errors unless allowed;
-//! 5. orient consistently and outward (flood fill over edge adjacency, minority flipped, closed parts made to
+//! 5. check the edges: holes and non-manifold edges are errors unless allowed;
+//! 6. orient consistently and outward (flood fill over edge adjacency, minority flipped, closed parts made to
 //!    enclose positive volume; see [`LoadReport::flipped_fixed`]); a surface with no consistent
 //!    winding is an error;
-//! 6. scale to metres.
+//! 7. scale to metres.
 
 use std::path::Path;
 
 use crate::error::MeshLoadError;
 use crate::orient::{Orientation, orient};
-use crate::raw::{MeshFormat, RawMesh};
+use crate::raw::{MESH_FILE, MeshFormat, RawMesh};
 use crate::topology::{EdgeDefects, EdgeTable};
 use crate::trimesh::{BoundingBox, TriMesh};
 use crate::units::Units;
@@ -142,13 +147,58 @@ pub(crate) fn read_and_parse(path: &Path) -> Result<(RawMesh, MeshFormat), MeshL
         Some("obj") => |b, p| obj::parse(b, p).map(|r| (r, MeshFormat::Obj)),
         _ => return Err(MeshLoadError::UnsupportedFormat { path: path.to_path_buf() }),
     };
-    let bytes =
-        std::fs::read(path).map_err(|e| MeshLoadError::Io { path: path.to_path_buf(), message: e.to_string() })?;
+    let bytes = lamina_input::read_bytes(path, &MESH_FILE)?;
     parser(&bytes, path)
 }
 
+/// Finds a stray vertex: one more than [`OUTLIER_RATIO`] times farther from the vertices'
+/// per-axis median point than the median vertex is. Returns its index and that ratio.
+/// `None` when there is none, or when half the vertices sit on the median point.
+fn find_outlier(vertices: &[[f64; 3]]) -> Option<(usize, f64)> {
+    if vertices.len() < 3 {
+        return None;
+    }
+    let median = |values: &mut Vec<f64>| {
+        let mid = values.len() / 2;
+        *values.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
+    let mut scratch: Vec<f64> = Vec::with_capacity(vertices.len());
+    let mut centre = [0.0; 3];
+    for (axis, c) in centre.iter_mut().enumerate() {
+        scratch.clear();
+        scratch.extend(vertices.iter().map(|v| v[axis]));
+        *c = median(&mut scratch);
+    }
+    let distance =
+        |v: &[f64; 3]| ((v[0] - centre[0]).powi(2) + (v[1] - centre[1]).powi(2) + (v[2] - centre[2]).powi(2)).sqrt();
+    scratch.clear();
+    scratch.extend(vertices.iter().map(distance));
+    let typical = median(&mut scratch);
+    if typical <= 0.0 {
+        return None;
+    }
+    let (index, far) = vertices.iter().map(distance).enumerate().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let ratio = far / typical;
+    (ratio > OUTLIER_RATIO).then_some((index, ratio))
+}
+
+/// How many times farther than the median vertex a vertex may lie from the median point.
+pub const OUTLIER_RATIO: f64 = 1000.0;
+
 pub(crate) fn process(path: &Path, options: &LoadOptions) -> Result<Processed, MeshLoadError> {
     let (raw, format) = read_and_parse(path)?;
+    if let Some((index, ratio)) = find_outlier(&raw.vertices) {
+        let location = match format {
+            MeshFormat::Obj => format!("vertex {}", index + 1),
+            MeshFormat::StlBinary | MeshFormat::StlAscii => format!("triangle {}", index / 3),
+        };
+        return Err(MeshLoadError::OutlierVertex {
+            path: path.to_path_buf(),
+            location,
+            position: raw.vertices[index],
+            ratio,
+        });
+    }
     let diagonal = BoundingBox::of_points(&raw.vertices).map_or(0.0, |b| b.diagonal());
     let (units, units_inferred) = match options.units {
         Some(u) => (u, false),
@@ -162,7 +212,7 @@ pub(crate) fn process(path: &Path, options: &LoadOptions) -> Result<Processed, M
     let (mut triangles, degenerate_removed) = remap_triangles(&raw.triangles, &welded.remap);
     let vertices = compact(welded.positions, &mut triangles);
     if triangles.is_empty() {
-        return Err(MeshLoadError::Empty { path: path.to_path_buf(), degenerate_removed });
+        return Err(MeshLoadError::Empty { path: path.to_path_buf(), degenerate_removed, weld_tolerance });
     }
     let edges = EdgeTable::build(&triangles);
     let defects = edges.defects(vertices.len());
@@ -188,8 +238,9 @@ pub(crate) fn process(path: &Path, options: &LoadOptions) -> Result<Processed, M
 /// See the [module docs](self) for the steps. Never panics on bad input.
 ///
 /// # Errors
-/// [`MeshLoadError`]: the file cannot be read, has an unknown extension, is malformed (the
-/// error names the file and line, or the binary STL triangle), is empty after cleaning, has
+/// [`MeshLoadError`]: the file cannot be read (missing, not a regular file, over its cap or
+/// the memory available), has an unknown extension, is malformed (the error names the file
+/// and line, or the binary STL triangle), has a stray vertex, is empty after cleaning, has
 /// holes or non-manifold edges (unless allowed by `options`; the error gives counts and the
 /// first offending edge in file units), or cannot be oriented consistently.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<LoadedMesh, MeshLoadError> {

@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::error::{MeshLoadError, MeshSaveError};
-use crate::raw::RawMesh;
+use crate::raw::{MAX_ABS_COORDINATE, RawMesh, coordinate_ok};
 use crate::trimesh::TriMesh;
 use crate::units::Units;
 
@@ -64,7 +64,15 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<RawMesh, MeshLoadError>
                         return Err(syntax(line_no, format!("vertex has {k} coordinates, 3 needed")));
                     };
                     *c = match tok.parse::<f64>() {
-                        Ok(x) if x.is_finite() => x,
+                        Ok(x) if coordinate_ok(x) => x,
+                        Ok(x) if x.is_finite() => {
+                            return Err(syntax(
+                                line_no,
+                                format!(
+                                    "coordinate {x:e} is beyond ±{MAX_ABS_COORDINATE:e}, the largest a mesh file may hold"
+                                ),
+                            ));
+                        }
                         _ => return Err(syntax(line_no, format!("`{tok}` is not a finite number"))),
                     };
                 }

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use crate::error::{MeshLoadError, MeshSaveError};
 use crate::lex::Lexer;
-use crate::raw::{MeshFormat, RawMesh};
+use crate::raw::{MAX_ABS_COORDINATE, MeshFormat, RawMesh, coordinate_ok};
 use crate::trimesh::TriMesh;
 use crate::units::Units;
 
@@ -76,6 +76,13 @@ fn parse_binary(bytes: &[u8], path: &Path) -> Result<RawMesh, MeshLoadError> {
             if !v.iter().all(|c| c.is_finite()) {
                 return Err(MeshLoadError::StlNonFinite { path: path.to_path_buf(), triangle: t as u64 });
             }
+            if let Some(&value) = v.iter().find(|c| !coordinate_ok(**c)) {
+                return Err(MeshLoadError::StlCoordinateTooLarge {
+                    path: path.to_path_buf(),
+                    triangle: t as u64,
+                    value,
+                });
+            }
             raw.vertices.push(v);
         }
         raw.triangles.push([base, base + 1, base + 2]);
@@ -121,7 +128,7 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<RawMesh, MeshLoadError> {
                     return Err(err(lx.line(), "unexpected end of file inside a facet".into()));
                 };
                 if tok.eq_ignore_ascii_case("vertex") {
-                    corners.push([number(&mut lx, path)?, number(&mut lx, path)?, number(&mut lx, path)?]);
+                    corners.push([coordinate(&mut lx, path)?, coordinate(&mut lx, path)?, coordinate(&mut lx, path)?]);
                 } else if tok.eq_ignore_ascii_case("endloop") {
                     if corners.len() < 3 {
                         return Err(err(line, format!("facet has {} vertices, at least 3 needed", corners.len())));
@@ -166,6 +173,11 @@ fn expect(lx: &mut Lexer<'_>, word: &str, path: &Path) -> Result<(), MeshLoadErr
 }
 
 fn number(lx: &mut Lexer<'_>, path: &Path) -> Result<f64, MeshLoadError> {
+    number_on_line(lx, path).map(|(_, x)| x)
+}
+
+/// The next token as a finite number, and its 1-based line.
+fn number_on_line(lx: &mut Lexer<'_>, path: &Path) -> Result<(usize, f64), MeshLoadError> {
     let Some((line, tok)) = lx.next_token() else {
         return Err(MeshLoadError::StlSyntax {
             path: path.to_path_buf(),
@@ -174,13 +186,26 @@ fn number(lx: &mut Lexer<'_>, path: &Path) -> Result<f64, MeshLoadError> {
         });
     };
     match tok.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
+        Ok(x) if x.is_finite() => Ok((line, x)),
         _ => Err(MeshLoadError::StlSyntax {
             path: path.to_path_buf(),
             line,
             message: format!("`{tok}` is not a finite number"),
         }),
     }
+}
+
+/// A vertex coordinate: a finite number within ±[`MAX_ABS_COORDINATE`].
+fn coordinate(lx: &mut Lexer<'_>, path: &Path) -> Result<f64, MeshLoadError> {
+    let (line, x) = number_on_line(lx, path)?;
+    if coordinate_ok(x) {
+        return Ok(x);
+    }
+    Err(MeshLoadError::StlSyntax {
+        path: path.to_path_buf(),
+        line,
+        message: format!("coordinate {x:e} is beyond ±{MAX_ABS_COORDINATE:e}, the largest a mesh file may hold"),
+    })
 }
 
 fn save_io(path: &Path, e: std::io::Error) -> MeshSaveError {

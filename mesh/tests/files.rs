@@ -164,7 +164,11 @@ fn load_degenerate_triangles_removed_works() {
 fn load_bad_paths_and_empty_fail() {
     let dir = tempfile::tempdir().unwrap();
     let e = load(dir.path().join("missing.stl"), &LoadOptions::default()).unwrap_err();
-    assert!(matches!(e, MeshLoadError::Io { .. }) && e.to_string().contains("missing.stl"), "{e}");
+    assert!(
+        matches!(e, MeshLoadError::Read(lamina_input::FileReadError::Io { .. }))
+            && e.to_string().contains("missing.stl"),
+        "{e}"
+    );
     let e = load(put(dir.path(), "mesh.ply", b"ply\n"), &LoadOptions::default()).unwrap_err();
     assert!(matches!(e, MeshLoadError::UnsupportedFormat { .. }), "{e}");
     let e = load(put(dir.path(), "empty.stl", b"solid e\nendsolid e\n"), &LoadOptions::default()).unwrap_err();
