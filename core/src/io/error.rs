@@ -38,6 +38,9 @@ pub enum ModelReadError {
         /// The operating system's message.
         message: String,
     },
+    /// The file was not read: it is not a regular file (a FIFO, `/dev/zero`), is larger
+    /// than [`MODEL_FILE`](super::MODEL_FILE)'s cap, or needs more memory than is available.
+    Refused(lamina_input::FileReadError),
     /// The text is not well-formed XML (or not UTF-8).
     Syntax {
         /// Where.
@@ -209,7 +212,7 @@ impl ModelReadError {
     /// The location of the error, or `None` for [`ModelReadError::Io`].
     pub fn location(&self) -> Option<&SourceLocation> {
         match self {
-            Self::Io { .. } => None,
+            Self::Io { .. } | Self::Refused(_) => None,
             Self::Syntax { at, .. }
             | Self::Truncated { at, .. }
             | Self::UnknownElement { at, .. }
@@ -233,7 +236,7 @@ impl ModelReadError {
     /// Mutable location, for the reader to fill in file, line and column once known.
     pub(crate) fn location_mut(&mut self) -> Option<&mut SourceLocation> {
         match self {
-            Self::Io { .. } => None,
+            Self::Io { .. } | Self::Refused(_) => None,
             Self::Syntax { at, .. }
             | Self::Truncated { at, .. }
             | Self::UnknownElement { at, .. }
@@ -264,6 +267,7 @@ impl fmt::Display for ModelReadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Io { file, message } => write!(f, "{file}: cannot read: {message}"),
+            Self::Refused(e) => write!(f, "{e}"),
             Self::Syntax { at, message } => write!(f, "{at}: not well-formed XML: {message}"),
             Self::Truncated { at, open } => write!(f, "{at}: the document ends inside '{open}' (truncated file?)"),
             Self::UnknownElement { at, element, parent } => {

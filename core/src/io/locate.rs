@@ -7,7 +7,6 @@
 use super::error::ModelReadError;
 use quick_xml::events::Event;
 use quick_xml::reader::Reader;
-use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
@@ -30,7 +29,9 @@ impl Source<'_> {
     fn open(&self) -> Option<Box<dyn BufRead + '_>> {
         match self {
             Source::Text(t) => Some(Box::new(t.as_bytes())),
-            Source::File(p) => File::open(p).ok().map(|f| Box::new(BufReader::new(f)) as Box<dyn BufRead>),
+            Source::File(p) => lamina_input::open_regular(p, &super::xml_read::MODEL_FILE)
+                .ok()
+                .map(|(f, _)| Box::new(BufReader::new(f)) as Box<dyn BufRead>),
         }
     }
 }

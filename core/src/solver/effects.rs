@@ -82,7 +82,8 @@ pub struct GuardSettings {
     pub max_speed: f64,
     /// Largest plausible displacement from rest, m. Default 1.
     pub max_displacement: f64,
-    /// Retries with twice the sub-steps before handing the frame to implicit Euler. Default 2.
+    /// Retries with twice the sub-steps before handing the frame to implicit Euler. Default 2;
+    /// at most [`MAX_GUARD_RETRIES`](super::MAX_GUARD_RETRIES) (8).
     pub retries: u32,
 }
 

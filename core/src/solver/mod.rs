@@ -4,6 +4,7 @@
 //! data beyond what it derived for speed: the streaming spring layout, node arrays in
 //! precision `T`, and scratch buffers allocated once.
 
+mod build_checks;
 mod critical_step;
 mod disjoint;
 mod dynamics;
@@ -23,6 +24,7 @@ mod spring_pass;
 mod vec3s;
 mod worker_pool;
 
+pub use build_checks::{MAX_CG_ITERATIONS, MAX_GUARD_RETRIES, MAX_SUBSTEPS, MAX_THREADS, max_coordinate};
 pub use critical_step::StabilityEstimate;
 pub use dynamics::{StageCounters, State};
 pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};

@@ -61,7 +61,8 @@ impl fmt::Display for IntegratorKind {
 pub enum Substeps {
     /// As few as keep an explicit scheme below its critical step (1 for implicit).
     Auto,
-    /// Exactly this many (≥ 1), even above the critical step (for stability studies).
+    /// Exactly this many (1 to [`MAX_SUBSTEPS`](super::MAX_SUBSTEPS), 10,000), even above
+    /// the critical step (for stability studies).
     Fixed(u32),
 }
 
@@ -74,19 +75,23 @@ pub struct IntegrationParameters {
     pub integrator: IntegratorKind,
     /// Sub-stepping. Default [`Substeps::Auto`].
     pub substeps: Substeps,
-    /// Fraction of the critical step that automatic sub-steps use. Default 0.9.
+    /// Fraction of the critical step that automatic sub-steps use, in (0, 1]. Default 0.9.
     pub stability_safety: f64,
-    /// Upper bound on automatic sub-steps per frame. Default 1000.
+    /// Upper bound on automatic sub-steps per frame. Default 1000; at most
+    /// [`MAX_SUBSTEPS`](super::MAX_SUBSTEPS) (10,000). When the critical step asks for
+    /// more, the frame steps above it ([`Simulation::substeps_clamped`](super::Simulation::substeps_clamped)).
     pub max_substeps: u32,
     /// Conjugate-gradient stop: residual norm relative to the right-hand side. Default 1e-5.
     pub cg_tolerance: f64,
-    /// Conjugate-gradient iteration cap per sub-step. Default 200.
+    /// Conjugate-gradient iteration cap per sub-step. Default 200; at most
+    /// [`MAX_CG_ITERATIONS`](super::MAX_CG_ITERATIONS) (10,000).
     pub cg_max_iterations: u32,
     /// Rayleigh mass-proportional damping α, 1/s (implicit Euler only). Default 0.
     pub rayleigh_alpha: f64,
     /// Rayleigh stiffness-proportional damping β, s (implicit Euler only). Default 0.
     pub rayleigh_beta: f64,
-    /// Worker threads for the force pass (the caller is one). Default 1.
+    /// Worker threads for the force pass (the caller is one). Default 1; at most
+    /// [`MAX_THREADS`](super::MAX_THREADS) (256).
     pub threads: usize,
     /// Pin worker threads to CPUs. Default false.
     pub pin_workers: bool,

@@ -11,6 +11,7 @@
 //!
 //! `step()` cannot fail and, with the guard on, never leaves a non-finite state.
 
+use super::build_checks::{check_params, check_precision, check_stability};
 use super::critical_step::StabilityEstimate;
 use super::dynamics::{Dynamics, StageCounters, State};
 use super::effects::Effects;
@@ -21,6 +22,7 @@ use super::vec3s::Vec3s;
 use crate::model::{Model, ModelValidateError};
 use crate::real::Real;
 use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Why a simulation could not be built.
@@ -42,6 +44,54 @@ pub enum SimulationBuildError {
     },
     /// The step is not finite and positive, or sub-steps are zero.
     BadStep,
+    /// A count is above its cap ([`MAX_SUBSTEPS`](super::MAX_SUBSTEPS),
+    /// [`MAX_CG_ITERATIONS`](super::MAX_CG_ITERATIONS), ...).
+    AboveCap {
+        /// The parameter, as named in scene files.
+        parameter: &'static str,
+        /// Its value.
+        value: u64,
+        /// The cap.
+        cap: u64,
+    },
+    /// A solver setting is outside its range.
+    BadParameter {
+        /// The parameter, as named in scene files.
+        parameter: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range it must be in.
+        expected: &'static str,
+    },
+    /// A node lies beyond [`max_coordinate`](super::max_coordinate) of the precision: its
+    /// squared distances would not be finite.
+    PositionOutOfRange {
+        /// The node.
+        node: u32,
+        /// Its position, m.
+        position: [f64; 3],
+        /// The largest coordinate magnitude of the precision, m.
+        limit_m: f64,
+        /// `f32` or `f64`.
+        precision: &'static str,
+    },
+    /// A mass or stiffness rounds to zero or overflows in the precision.
+    NotRepresentable {
+        /// What and its value, e.g. `node 3: mass 1e-300 kg`.
+        item: String,
+        /// `f32` or `f64`.
+        precision: &'static str,
+    },
+    /// The stiffest mode's frequency or damping rate is not finite (or the explicit
+    /// critical step not positive): no step can follow the model.
+    NonFiniteStability {
+        /// Highest angular frequency estimated, rad/s.
+        omega_max: f64,
+        /// Highest damping rate estimated, 1/s.
+        gamma_max: f64,
+        /// The spring with the largest stiffness over its lighter node's mass.
+        stiffest: String,
+    },
 }
 
 impl fmt::Display for SimulationBuildError {
@@ -51,6 +101,26 @@ impl fmt::Display for SimulationBuildError {
             Self::NodeOutOfRange { effect, node } => write!(f, "{effect}: node {node} does not exist"),
             Self::BadEffectValue { effect } => write!(f, "{effect}: a value is NaN, infinite or out of range"),
             Self::BadStep => write!(f, "time step must be finite and positive, sub-steps at least 1"),
+            Self::AboveCap { parameter, value, cap } => {
+                write!(f, "{parameter} = {value} is above its cap of {cap}")
+            }
+            Self::BadParameter { parameter, value, expected } => {
+                write!(f, "{parameter} = {value:e} must be {expected}")
+            }
+            Self::PositionOutOfRange { node, position: p, limit_m, precision } => write!(
+                f,
+                "node {node} at ({:e}, {:e}, {:e}) m is beyond ±{limit_m:.1e} m, the largest coordinate whose \
+                 squared distances stay finite in {precision}",
+                p[0], p[1], p[2]
+            ),
+            Self::NotRepresentable { item, precision } => {
+                write!(f, "{item} rounds to zero or overflows in {precision}")
+            }
+            Self::NonFiniteStability { omega_max, gamma_max, stiffest } => write!(
+                f,
+                "the model's stiffest mode is not finite (omega_max {omega_max:e} rad/s, damping rate \
+                 {gamma_max:e} 1/s); stiffest spring for its mass: {stiffest}"
+            ),
         }
     }
 }
@@ -96,6 +166,8 @@ pub struct Simulation<T: Real> {
     implicit: ImplicitSolver<T>,
     stability: StabilityEstimate,
     substeps: u32,
+    /// Sub-steps the critical step asks for, before the `max_substeps` clamp.
+    substeps_needed: u64,
     quarantine: Vec<GuardEvent>,
     totals: GuardTotals,
 }
@@ -160,6 +232,8 @@ impl<T: Real> Simulation<T> {
         if !(params.dt.is_finite() && params.dt > 0.0) || params.substeps == Substeps::Fixed(0) {
             return Err(SimulationBuildError::BadStep);
         }
+        check_params(&params, &effects)?;
+        check_precision::<T>(model)?;
         let mut stability = StabilityEstimate::of_model(
             model,
             effects.spring_damping,
@@ -181,6 +255,7 @@ impl<T: Real> Simulation<T> {
             let bound = dynamics.skin_volume.omega2_bound(model, k, dynamics.effects.bone);
             stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
         }
+        check_stability(model, &stability, params.integrator)?;
         let n = model.nodes.len();
         let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };
         let z = || Vec3s::zeros(n);
@@ -194,26 +269,37 @@ impl<T: Real> Simulation<T> {
             implicit,
             stability,
             substeps: 1,
+            substeps_needed: 1,
             quarantine: Vec::with_capacity(8),
             totals: GuardTotals::default(),
             params,
         };
-        sim.substeps = sim.auto_substeps(sim.params.integrator);
+        sim.substeps_needed = sim.substeps_needed(sim.params.integrator);
+        sim.substeps = sim.substeps_needed.clamp(1, u64::from(sim.params.max_substeps.max(1))) as u32;
+        if let Substeps::Fixed(n) = sim.params.substeps {
+            sim.substeps = n;
+        }
         Ok(sim)
     }
 
-    fn auto_substeps(&self, integrator: IntegratorKind) -> u32 {
+    /// Sub-steps per frame that keep `integrator` below its critical step (saturating;
+    /// 1 when the critical step is infinite), or the fixed count.
+    fn substeps_needed(&self, integrator: IntegratorKind) -> u64 {
         match self.params.substeps {
-            Substeps::Fixed(n) => n.max(1),
+            Substeps::Fixed(n) => u64::from(n.max(1)),
             Substeps::Auto => {
                 let h = self.stability.critical_step(integrator) * self.params.stability_safety;
-                if !h.is_finite() {
-                    1
-                } else {
-                    ((self.params.dt / h).ceil() as u32).clamp(1, self.params.max_substeps.max(1))
-                }
+                if !h.is_finite() { 1 } else { ((self.params.dt / h).ceil() as u64).max(1) }
             }
         }
+    }
+
+    /// With automatic sub-steps, the number the critical step asks for when `max_substeps`
+    /// cut it down (the frame then steps above the critical step and relies on the guard);
+    /// `None` when nothing was clamped. `lamina run` prints it.
+    pub fn substeps_clamped(&self) -> Option<u64> {
+        (self.params.substeps == Substeps::Auto && self.substeps_needed > u64::from(self.substeps))
+            .then_some(self.substeps_needed)
     }
 
     /// Current state.
@@ -304,15 +390,47 @@ impl<T: Real> Simulation<T> {
     /// too): twice the sub-steps (up to `retries` times), then implicit Euler, and as a last
     /// resort the last good state is kept with velocities zeroed.
     pub fn step(&mut self) {
+        self.step_inner(None);
+    }
+
+    /// [`step`](Self::step), checking `stop` between sub-steps (one relaxed load each):
+    /// once it reads `true` the frame ends after the sub-step under way, so a frame of many
+    /// sub-steps stops within one sub-step's work. Returns `false` when `stop` cut the frame
+    /// short: the state is then that of the last completed sub-step (with the guard on, the
+    /// last good state if that one is bad). The flag is the caller's, e.g. set by a signal
+    /// handler; the simulation never clears it.
+    ///
+    /// ```
+    /// use std::sync::atomic::AtomicBool;
+    /// use lamina_core::scene::Scene;
+    /// use lamina_core::solver::Simulation;
+    ///
+    /// let scene = Scene::builtin_default();
+    /// let model = scene.build_model()?;
+    /// let mut sim = Simulation::<f32>::new(&model, scene.solver.clone(), scene.effects.clone())?;
+    /// assert!(sim.step_or_stop(&AtomicBool::new(false)));
+    /// let t = sim.state().time;
+    /// assert!(!sim.step_or_stop(&AtomicBool::new(true))); // stopped after one sub-step
+    /// assert!(sim.state().time - t < scene.solver.dt);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn step_or_stop(&mut self, stop: &AtomicBool) -> bool {
+        self.step_inner(Some(stop))
+    }
+
+    fn step_inner(&mut self, stop: Option<&AtomicBool>) -> bool {
         self.quarantine.clear();
-        self.advance(self.params.integrator, self.substeps);
+        let completed = self.advance(self.params.integrator, self.substeps, stop);
         self.dynamics.counters.frames += 1;
-        let Some(settings) = self.dynamics.effects.guard else { return };
+        let Some(settings) = self.dynamics.effects.guard else { return completed };
+        if !completed {
+            return self.stopped_in_frame(&settings);
+        }
         let t = Instant::now();
         let Some((reason, node)) = inspect_state(&self.state, &self.dynamics.rest, &settings) else {
             self.snapshot.copy_from(&self.state);
             self.dynamics.counters.guard += t.elapsed();
-            return;
+            return true;
         };
         self.totals.rollbacks += 1;
         let time = self.snapshot.time;
@@ -322,7 +440,9 @@ impl<T: Real> Simulation<T> {
             for _ in 0..settings.retries {
                 n = n.saturating_mul(2);
                 self.state.copy_from(&self.snapshot);
-                self.advance(self.params.integrator, n);
+                if !self.advance(self.params.integrator, n, stop) {
+                    return self.stopped_in_frame(&settings);
+                }
                 if inspect_state(&self.state, &self.dynamics.rest, &settings).is_none() {
                     recovery = Recovery::Substeps(n);
                     break;
@@ -331,7 +451,9 @@ impl<T: Real> Simulation<T> {
         }
         if recovery == Recovery::Frozen {
             self.state.copy_from(&self.snapshot);
-            self.advance(IntegratorKind::ImplicitEuler, 1);
+            if !self.advance(IntegratorKind::ImplicitEuler, 1, stop) {
+                return self.stopped_in_frame(&settings);
+            }
             if inspect_state(&self.state, &self.dynamics.rest, &settings).is_none() {
                 recovery = Recovery::Implicit;
             }
@@ -351,12 +473,25 @@ impl<T: Real> Simulation<T> {
             self.quarantine.push(GuardEvent { time, reason, node, recovery });
         }
         self.dynamics.counters.guard += t.elapsed();
+        true
     }
 
-    fn advance(&mut self, integrator: IntegratorKind, substeps: u32) {
+    /// A frame stopped part-way: keeps the state if it is good, else the last good one.
+    fn stopped_in_frame(&mut self, settings: &super::effects::GuardSettings) -> bool {
+        if inspect_state(&self.state, &self.dynamics.rest, settings).is_some() {
+            self.state.copy_from(&self.snapshot);
+        }
+        false
+    }
+
+    /// Runs `substeps` sub-steps of `integrator`; `false` when `stop` ended it early.
+    fn advance(&mut self, integrator: IntegratorKind, substeps: u32, stop: Option<&AtomicBool>) -> bool {
         let h = self.params.dt / substeps as f64;
         let start_time = self.state.time;
         for k in 0..substeps {
+            if k > 0 && stop.is_some_and(|f| f.load(Ordering::Relaxed)) {
+                return false;
+            }
             match integrator {
                 IntegratorKind::SymplecticEuler => self.dynamics.symplectic_substep(&mut self.state, h),
                 IntegratorKind::Rk4 => self.rk4_substep(h),
@@ -369,6 +504,7 @@ impl<T: Real> Simulation<T> {
             self.dynamics.move_bone(&mut self.state, now);
             self.dynamics.counters.substeps += 1;
         }
+        true
     }
 
     fn rk4_substep(&mut self, h: f64) {
