@@ -267,7 +267,7 @@ fn generator_bad_inputs_fails() {
     );
     // An outer skin beyond the rays' reach is missed at the first grid point.
     let spec = CylinderLimb::new(12, 3);
-    let centreline = spec.centreline();
+    let centreline = spec.centreline().unwrap();
     let [outer, skin_fat, fat_muscle, bone] = Boundary::ALL.map(|b| spec.cylinder(b));
     let surfaces = LimbSurfaces {
         centreline: &centreline,

@@ -152,7 +152,22 @@ pub enum AnatomyGenerateError {
     Settings(String),
     /// The layered generation failed.
     Generate(GeneratorError),
+    /// The repairs of one boundary exceed [`MAX_REPAIR_FRACTION`] of its samples: the
+    /// surfaces do not describe nested layers (a bone given as the skin, a minimum layer
+    /// thicker than the limb), so the model would be the repair's, not the data's.
+    TooManyRepairs {
+        /// The boundary, e.g. `fat/muscle`.
+        boundary: &'static str,
+        /// Samples repaired (missed plus too close or outside).
+        repaired: usize,
+        /// Samples on that boundary.
+        samples: usize,
+    },
 }
+
+/// Largest fraction of a boundary's samples the nesting repair may place: 25 %. The
+/// BodyParts3D thigh needs 5.9 % (skin/fat) and 2.8 % (fat/muscle).
+pub const MAX_REPAIR_FRACTION: f64 = 0.25;
 
 impl std::fmt::Display for AnatomyGenerateError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -161,6 +176,14 @@ impl std::fmt::Display for AnatomyGenerateError {
             Self::Centreline(e) => write!(f, "centreline: {e}"),
             Self::Settings(e) => write!(f, "{e}"),
             Self::Generate(e) => write!(f, "{e}"),
+            Self::TooManyRepairs { boundary, repaired, samples } => write!(
+                f,
+                "{boundary}: {repaired} of {samples} samples had to be repaired ({:.0} %, more than the {:.0} % allowed): \
+                 the surfaces do not nest as skin, fat/muscle boundary and bone; check which file is which and \
+                 min_layer",
+                100.0 * *repaired as f64 / (*samples).max(1) as f64,
+                100.0 * MAX_REPAIR_FRACTION
+            ),
         }
     }
 }
@@ -226,6 +249,13 @@ pub fn generate_anatomy(
     let mut model = generate_layered(&name, &surfaces, spec.grid, &spec.materials, progress)
         .map_err(AnatomyGenerateError::Generate)?;
     let t_gen = t2.elapsed().as_secs_f64();
+    let samples = spec.grid.triangles();
+    for (boundary, b) in [("skin/fat", &dermis_nested), ("fat/muscle", &fat_nested), ("bone", &bone_nested)] {
+        let repaired = b.missed.get() + b.clamped.get();
+        if repaired as f64 > MAX_REPAIR_FRACTION * samples as f64 {
+            return Err(AnatomyGenerateError::TooManyRepairs { boundary, repaired, samples });
+        }
+    }
     let report = AnatomyReport {
         loads: vec![
             (spec.skin.clone(), skin.report),

@@ -10,7 +10,7 @@ use super::materials::Materials;
 use super::surface::{Boundary, BoundarySurface};
 use super::topology::LayeredTopology;
 use super::vec3::{add, centroid, distance, scale};
-use crate::model::{Model, NodeKind, Surface};
+use crate::model::{GENERATE_MEMORY_FACTOR, Model, NodeKind, Surface};
 use std::f64::consts::TAU;
 
 /// Springs shorter than this (m) mean two samples coincide.
@@ -78,6 +78,8 @@ pub fn generate_layered(
     if !grid.is_valid() {
         return Err(GeneratorError::BadGrid { columns: grid.columns, rows: grid.rows });
     }
+    let what = format!("model '{name}'");
+    grid.model_size().check(&what, GENERATE_MEMORY_FACTOR).map_err(GeneratorError::Size)?;
     if !(surfaces.reach.is_finite() && surfaces.reach > 0.0) {
         return Err(GeneratorError::BadReach);
     }

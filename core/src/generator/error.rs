@@ -1,7 +1,7 @@
 //! Why a model could not be generated.
 
 use super::surface::Boundary;
-use crate::model::{ModelValidateError, Tissue};
+use crate::model::{ModelSizeError, ModelValidateError, Tissue};
 use std::fmt;
 
 /// Why [`generate_layered`](super::generate_layered) or [`generate`](super::generate)
@@ -15,8 +15,10 @@ pub enum GeneratorError {
         /// Requested H.
         rows: u32,
     },
-    /// The cylinder limb's radii are not positive and strictly decreasing inward, or its
-    /// length is not positive and finite.
+    /// The cylinder limb's length or a radius is outside 1 µm to 1 km
+    /// ([`CylinderLimb::MIN_SIZE_M`](super::CylinderLimb::MIN_SIZE_M) to
+    /// [`MAX_SIZE_M`](super::CylinderLimb::MAX_SIZE_M)), or the radii do not decrease
+    /// strictly inward.
     BadCylinder,
     /// The ray origin distance is not positive and finite.
     BadReach,
@@ -48,6 +50,9 @@ pub enum GeneratorError {
     },
     /// The finished model failed [`Model::validate`](crate::model::Model::validate).
     Model(ModelValidateError),
+    /// The model would need more memory than is available (or more nodes than `u32`
+    /// indices address).
+    Size(ModelSizeError),
 }
 
 impl fmt::Display for GeneratorError {
@@ -57,7 +62,7 @@ impl fmt::Display for GeneratorError {
                 write!(f, "grid {columns}x{rows}: needs at least 3 columns and 1 row and fewer than 2^32 nodes")
             }
             Self::BadCylinder => {
-                write!(f, "cylinder limb: radii must be positive and decrease inward; length positive")
+                write!(f, "cylinder limb: length and radii must be between 1e-6 and 1e3 m, radii decreasing inward")
             }
             Self::BadReach => write!(f, "ray reach must be positive and finite"),
             Self::BadMaterial { tissue } => {
@@ -77,6 +82,7 @@ impl fmt::Display for GeneratorError {
             ),
             Self::DegenerateSpring { a, b } => write!(f, "nodes {a} and {b} coincide (spring shorter than 1 nm)"),
             Self::Model(e) => write!(f, "generated model is invalid: {e}"),
+            Self::Size(e) => write!(f, "{e}"),
         }
     }
 }
@@ -85,6 +91,7 @@ impl std::error::Error for GeneratorError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Self::Model(e) => Some(e),
+            Self::Size(e) => Some(e),
             _ => None,
         }
     }

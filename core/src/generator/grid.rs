@@ -25,7 +25,18 @@ impl GridSize {
 
     /// At least 3 columns and 1 row, and few enough nodes for `u32` indices.
     pub fn is_valid(&self) -> bool {
-        self.columns >= 3 && self.rows >= 1 && (self.columns as u64) * (7 * self.rows as u64 + 1) < u32::MAX as u64
+        self.columns >= 3 && self.rows >= 1 && self.model_size().nodes.is_some_and(|n| n < u64::from(u32::MAX))
+    }
+
+    /// Counts of the model generated on this grid, without overflow: `W·(7H+1)` nodes,
+    /// `W·(55H−13)` springs ([`distinct_springs`](super::families::distinct_springs)), and
+    /// `2WH` triangles on each of the four boundary surfaces.
+    pub fn model_size(&self) -> crate::model::ModelSize {
+        let (w, h) = (u64::from(self.columns), u64::from(self.rows));
+        let nodes = h.checked_mul(7).and_then(|x| x.checked_add(1)).and_then(|x| x.checked_mul(w));
+        let springs = h.checked_mul(55).map(|x| x.saturating_sub(13)).and_then(|x| x.checked_mul(w));
+        let triangles = w.checked_mul(h).and_then(|x| x.checked_mul(8));
+        crate::model::ModelSize::counted(nodes, springs, triangles)
     }
 
     /// Sample points on the outer skin: `W·(H+1)`.

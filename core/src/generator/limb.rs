@@ -47,18 +47,23 @@ impl CylinderLimb {
         Self { grid: GridSize::new(columns, rows), ..Self::default() }
     }
 
-    /// Positive, finite length and radii decreasing strictly inward.
+    /// Shortest length or radius accepted, m: 1 µm.
+    pub const MIN_SIZE_M: f64 = 1e-6;
+    /// Longest length or radius accepted, m: 1 km.
+    pub const MAX_SIZE_M: f64 = 1e3;
+
+    /// Length and radii within [[`MIN_SIZE_M`](Self::MIN_SIZE_M),
+    /// [`MAX_SIZE_M`](Self::MAX_SIZE_M)] (1 µm to 1 km), radii decreasing strictly inward.
     pub fn is_valid(&self) -> bool {
         let r = [self.outer_skin_radius, self.skin_fat_radius, self.fat_muscle_radius, self.bone_radius];
-        self.length.is_finite()
-            && self.length > 0.0
-            && r.iter().all(|x| x.is_finite() && *x > 0.0)
-            && r.windows(2).all(|p| p[0] > p[1])
+        let in_range = |x: f64| (Self::MIN_SIZE_M..=Self::MAX_SIZE_M).contains(&x);
+        in_range(self.length) && r.iter().all(|x| in_range(*x)) && r.windows(2).all(|p| p[0] > p[1])
     }
 
-    /// The centreline: from the origin to `(0, 0, length)`.
-    pub fn centreline(&self) -> Centreline {
-        Centreline::new(vec![[0.0; 3], [0.0, 0.0, self.length]]).unwrap_or_else(|| unreachable!("length checked"))
+    /// The centreline: from the origin to `(0, 0, length)`; `None` when the length is not a
+    /// positive length whose square is a normal number (below about 1e-154 m).
+    pub fn centreline(&self) -> Option<Centreline> {
+        Centreline::new(vec![[0.0; 3], [0.0, 0.0, self.length]])
     }
 
     /// Radius of `boundary`, m.
@@ -91,10 +96,9 @@ pub fn generate_with_progress(
     materials: &Materials,
     progress: Option<Progress<'_>>,
 ) -> Result<Model, GeneratorError> {
-    if !spec.is_valid() {
+    let Some(centreline) = spec.centreline().filter(|_| spec.is_valid()) else {
         return Err(GeneratorError::BadCylinder);
-    }
-    let centreline = spec.centreline();
+    };
     let [outer, skin_fat, fat_muscle, muscle_bone] = Boundary::ALL.map(|b| spec.cylinder(b));
     let surfaces = LimbSurfaces {
         centreline: &centreline,

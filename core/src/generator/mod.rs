@@ -53,7 +53,10 @@ mod table3;
 mod topology;
 mod vec3;
 
-pub use anatomy::{AnatomyGenerateError, AnatomyReport, AnatomySpec, MeshBoundary, NestedBoundary, generate_anatomy};
+pub use anatomy::{
+    AnatomyGenerateError, AnatomyReport, AnatomySpec, MAX_REPAIR_FRACTION, MeshBoundary, NestedBoundary,
+    generate_anatomy,
+};
 pub use build::{LimbSurfaces, Progress, STAGES, generate_layered};
 pub use centreline::{AxisFrame, Centreline};
 pub use cylinder::Cylinder;

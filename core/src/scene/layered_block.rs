@@ -3,8 +3,8 @@
 //! (`config/scenes/block.toml`; the default scene is the generator's limb).
 
 use crate::law::{Bilinear, SpringLaw};
-use crate::model::{Layer, Model, NodeKind, Surface, Tissue};
-use crate::yardstick::lattice::OFFSETS;
+use crate::model::{Layer, Model, ModelSize, ModelSizeError, NodeKind, RUN_MEMORY_FACTOR, Surface, Tissue};
+use crate::yardstick::lattice::{OFFSETS, lattice_model_size};
 use serde::Deserialize;
 
 /// A layer's spring law in scene files. Stiffnesses N/m, strains unitless.
@@ -108,9 +108,29 @@ impl Default for BlockSpec {
 }
 
 impl BlockSpec {
-    /// Rows of nodes including the bone row.
+    /// Rows of nodes including the bone row (saturating: an overflowing row count is
+    /// refused by [`check`](Self::check)).
     pub fn rows(&self) -> usize {
-        1 + self.muscle_rows + self.fat_rows + self.skin_rows
+        1usize.saturating_add(self.muscle_rows).saturating_add(self.fat_rows).saturating_add(self.skin_rows)
+    }
+
+    /// Refuses a block whose node or spring count overflows `u32` indices, or whose run
+    /// would need more memory than is available ([`RUN_MEMORY_FACTOR`] times the model);
+    /// counts are computed without overflow (`nx = nz = 2^32` is refused, not wrapped).
+    ///
+    /// # Errors
+    /// [`ModelSizeError`], naming the block's dimensions.
+    pub fn check_size(&self) -> Result<(), ModelSizeError> {
+        let rows = 1u64
+            .checked_add(self.muscle_rows as u64)
+            .and_then(|r| r.checked_add(self.fat_rows as u64))
+            .and_then(|r| r.checked_add(self.skin_rows as u64));
+        let what = format!("layered block {} x {} x {} nodes", self.nx, self.rows(), self.nz);
+        let size = match rows {
+            Some(rows) => lattice_model_size(self.nx as u64, rows, self.nz as u64),
+            None => ModelSize::counted(None, None, None),
+        };
+        size.check(&what, RUN_MEMORY_FACTOR)
     }
 }
 

@@ -10,7 +10,7 @@ use super::critical_step::StabilityEstimate;
 use super::effects::Effects;
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::simulation::SimulationBuildError;
-use crate::model::Model;
+use crate::model::{Model, ModelSize, RUN_MEMORY_FACTOR};
 use crate::real::Real;
 
 /// Largest number of sub-steps per frame: a fixed `substeps` or `max_substeps`. 10,000.
@@ -94,6 +94,16 @@ pub(crate) fn check_precision<T: Real>(model: &Model) -> Result<(), SimulationBu
         }
     }
     Ok(())
+}
+
+/// Refuses a model whose run would need more memory than is available: the solver's
+/// layout, state, scratch and snapshot come to about [`RUN_MEMORY_FACTOR`] − 1 times the
+/// model's own arrays.
+pub(crate) fn check_memory(model: &Model) -> Result<(), SimulationBuildError> {
+    let triangles = model.surfaces.iter().map(|s| s.triangles.len() as u64).sum();
+    let size = ModelSize::counted(Some(model.nodes.len() as u64), Some(model.springs.len() as u64), Some(triangles));
+    size.check(&format!("simulating model '{}'", model.name), RUN_MEMORY_FACTOR - 1)
+        .map_err(SimulationBuildError::Memory)
 }
 
 /// Refuses a stiffest mode whose frequency or damping rate is not finite, or an explicit

@@ -11,7 +11,7 @@
 //!
 //! `step()` cannot fail and, with the guard on, never leaves a non-finite state.
 
-use super::build_checks::{check_params, check_precision, check_stability};
+use super::build_checks::{check_memory, check_params, check_precision, check_stability};
 use super::critical_step::StabilityEstimate;
 use super::dynamics::{Dynamics, StageCounters, State};
 use super::effects::Effects;
@@ -82,6 +82,8 @@ pub enum SimulationBuildError {
         /// `f32` or `f64`.
         precision: &'static str,
     },
+    /// Running the model would need more memory than is available.
+    Memory(crate::model::ModelSizeError),
     /// The stiffest mode's frequency or damping rate is not finite (or the explicit
     /// critical step not positive): no step can follow the model.
     NonFiniteStability {
@@ -113,6 +115,7 @@ impl fmt::Display for SimulationBuildError {
                  squared distances stay finite in {precision}",
                 p[0], p[1], p[2]
             ),
+            Self::Memory(e) => write!(f, "{e}"),
             Self::NotRepresentable { item, precision } => {
                 write!(f, "{item} rounds to zero or overflows in {precision}")
             }
@@ -234,6 +237,7 @@ impl<T: Real> Simulation<T> {
         }
         check_params(&params, &effects)?;
         check_precision::<T>(model)?;
+        check_memory(model)?;
         let mut stability = StabilityEstimate::of_model(
             model,
             effects.spring_damping,

@@ -1,7 +1,7 @@
 //! The lattice, node by node and spring by spring, as the specification lists them.
 
 use crate::law::SpringLaw;
-use crate::model::{Layer, Model, NodeKind, Tissue};
+use crate::model::{Layer, Model, ModelSize, ModelSizeError, NodeKind, RUN_MEMORY_FACTOR, Tissue};
 
 /// Lattice spacing, m.
 pub const SPACING: f64 = 0.01;
@@ -73,6 +73,38 @@ impl LatticeSize {
     /// Node index of `(i, j, k)`: x fastest, then z, then y.
     pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
         (j * self.nz + k) * self.nx + i
+    }
+}
+
+/// Counts of a lattice of `nx × ny × nz` nodes with the [`OFFSETS`] springs (the yardstick
+/// and the layered block), without overflow: nodes, springs by [`spring_count`]'s closed
+/// form, and `2·nx·nz` surface triangles at most.
+pub fn lattice_model_size(nx: u64, ny: u64, nz: u64) -> ModelSize {
+    let nodes = nx.checked_mul(ny).and_then(|n| n.checked_mul(nz));
+    let (xm, ym, zm) = (nx.saturating_sub(1), ny.saturating_sub(1), nz.saturating_sub(1));
+    let product = |a: u64, b: u64, c: u64| a.checked_mul(b).and_then(|p| p.checked_mul(c));
+    let springs = [
+        product(xm, ny, nz),
+        product(nx, ym, nz),
+        product(nx, ny, zm),
+        product(xm, ym, nz).and_then(|p| p.checked_mul(2)),
+        product(xm, ny, zm).and_then(|p| p.checked_mul(2)),
+        product(nx, ym, zm).and_then(|p| p.checked_mul(2)),
+    ]
+    .into_iter()
+    .try_fold(0u64, |sum, t| t.and_then(|t| sum.checked_add(t)));
+    ModelSize::counted(nodes, springs, product(2, nx, nz))
+}
+
+impl LatticeSize {
+    /// Refuses a lattice whose counts overflow `u32` indices or whose run would need more
+    /// memory than is available ([`RUN_MEMORY_FACTOR`] times the model).
+    ///
+    /// # Errors
+    /// [`ModelSizeError`], naming the size.
+    pub fn check(&self) -> Result<(), ModelSizeError> {
+        lattice_model_size(self.nx as u64, self.ny as u64, self.nz as u64)
+            .check(&format!("yardstick lattice {}", self.name()), RUN_MEMORY_FACTOR)
     }
 }
 

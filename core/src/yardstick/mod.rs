@@ -7,7 +7,7 @@ pub(crate) mod lattice;
 mod reference;
 mod run;
 
-pub use lattice::{LatticeSize, lattice_model, spring_count};
+pub use lattice::{LatticeSize, lattice_model, lattice_model_size, spring_count};
 pub use reference::ReferenceStepper;
 pub use run::{
     Checksum, DT, GRAVITY, YardstickImpl, checksum, impl_params, lattice_effects, lattice_params, run_gravity,
