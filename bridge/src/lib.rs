@@ -32,8 +32,6 @@
 
 pub mod bridge;
 pub mod clock;
-pub mod device;
-pub mod haptics;
 pub mod publish;
 pub mod services;
 pub mod shutdown;

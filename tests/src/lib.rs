@@ -22,7 +22,7 @@ pub fn workspace_bin(name: &str) -> PathBuf {
         BUILD.call_once(|| {
             let release = bin_dir().ends_with("release");
             let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-            cmd.args(["build", "-p", "lamina-core", "-p", "lamina-bridge", "--bins"]);
+            cmd.args(["build", "-p", "lamina", "-p", "lamina-haptics", "--bins"]);
             if release {
                 cmd.arg("--release");
             }

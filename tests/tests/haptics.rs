@@ -4,11 +4,11 @@
 //! disappears; corrupt tool commands. Timing bounds here are safety requirements (force to
 //! zero within 5 ms of the core's last message), measured on the device loop's own trace.
 
-use lamina_bridge::haptics::DeviceMapping;
 use lamina_bridge::wire::ToolCommand;
 use lamina_bridge::{Bridge, BridgeConfig, FeedbackSubscriber, ToolPublisher};
 use lamina_core::scene::{Scene, ToolSource};
 use lamina_core::solver::{Simulation, SphereTool};
+use lamina_haptics::DeviceMapping;
 use lamina_tests::{unique_prefix, wait_with_watchdog, workspace_bin};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -58,7 +58,7 @@ impl core::fmt::Display for DeviceError {
             Self::PluginLoad { path, detail } => write!(f, "device plugin {path}: cannot load: {detail}"),
             Self::PluginAbi { path, found, expected } => write!(
                 f,
-                "device plugin {path}: ABI version {found}, this Lamina speaks {expected} (rebuild it against bridge/include/lamina_device.h)"
+                "device plugin {path}: ABI version {found}, this Lamina speaks {expected} (rebuild it against haptics/include/lamina_device.h)"
             ),
             Self::PluginOpen { path, detail } => write!(f, "device plugin {path}: could not open the device: {detail}"),
             Self::Plugin { path, code, detail } => write!(f, "device plugin {path}: call failed ({code}): {detail}"),

@@ -5,7 +5,7 @@
  * OpenHaptics HD, libnifalcon, ...) so that `lamina-haptics --device plugin:LIB.so` drives
  * the device without rebuilding Lamina. Build it against this header only, e.g.
  *
- *     cc -shared -fPIC -O2 -I bridge/include -o libmy_device.so my_device.c -lvendor
+ *     cc -shared -fPIC -O2 -I haptics/include -o libmy_device.so my_device.c -lvendor
  *
  * Frame and units (CHAI3D's convention): origin at the centre of the device's workspace,
  * x toward the operator, y to the operator's right, z up (right-handed). Positions in

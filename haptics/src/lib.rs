@@ -1,4 +1,6 @@
-//! The haptics process's parts: a device loop at 1-4 kHz that sends the handle's pose to the
+//! Lamina's haptics process (`lamina-haptics`) as a library: the device driver interface, the
+//! force renderer and the device loop. It talks to the core only through `lamina-bridge`'s
+//! `tool` and `feedback` services. A device loop at 1-4 kHz sends the handle's pose to the
 //! core and renders force locally from the core's latest contact model, so that a late core
 //! tick never makes the device unstable, and never hurts the hand holding it.
 //!
@@ -12,9 +14,14 @@
 //!    core-to-device latency.
 //! 4. [`SafetyEvent`]s leave the loop over a bounded channel to be logged elsewhere.
 //!
+//! Vendor devices plug in as shared libraries built against the C header
+//! `haptics/include/lamina_device.h` (example: `haptics/plugins/sim_device.c`), loaded by
+//! [`device::PluginDevice`].
+//!
 //! Architecture invariant: the haptics process knows nothing of the physics. It sees a tool
 //! pose, a force and a stiffness.
 
+pub mod device;
 mod device_loop;
 mod mapping;
 mod renderer;

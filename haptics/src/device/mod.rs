@@ -5,7 +5,7 @@
 //! workspace, **x toward the operator, y to the operator's right, z up** (right-handed).
 //! Positions are metres, forces newtons, orientations unit quaternions `[x, y, z, w]` rotating
 //! the handle frame into the device frame. The haptics process maps this frame onto the model
-//! frame ([`crate::haptics::DeviceMapping`]); a device never sees the model.
+//! frame ([`crate::DeviceMapping`]); a device never sees the model.
 //!
 //! # Implementations
 //! - [`NullDevice`]: no device connected; reads a fixed pose, swallows forces. Nothing ever
@@ -13,7 +13,7 @@
 //! - [`ScriptedDevice`]: replays a push/pull trajectory from a CSV file (the paper's Fig. 12),
 //!   recording every force it was sent.
 //! - [`PluginDevice`]: a vendor SDK wrapper (Force Dimension, OpenHaptics, libnifalcon) built
-//!   as a shared library against `bridge/include/lamina_device.h` and loaded at run time.
+//!   as a shared library against `haptics/include/lamina_device.h` and loaded at run time.
 //!
 //! # Contract
 //! `read` samples the handle (call it once per device-loop tick); `write_force` commands the
@@ -25,7 +25,7 @@
 //! # Examples
 //!
 //! ```
-//! use lamina_bridge::device::{HapticDevice, NullDevice};
+//! use lamina_haptics::device::{HapticDevice, NullDevice};
 //!
 //! # fn main() -> Result<(), Box<dyn core::error::Error>> {
 //! let mut device = NullDevice::default();

@@ -10,9 +10,9 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::Parser;
-use lamina_bridge::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
-use lamina_bridge::haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
 use lamina_bridge::{Bridge, BridgeConfig};
+use lamina_haptics::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
+use lamina_haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
 use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -25,7 +25,7 @@ struct Args {
     #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
     prefix: String,
     /// Device: `null`, `scripted:FILE.csv` (trajectory replay) or `plugin:LIB.so` (a vendor
-    /// wrapper built against bridge/include/lamina_device.h).
+    /// wrapper built against haptics/include/lamina_device.h).
     #[arg(long, default_value = "null")]
     device: String,
     /// Argument string handed to a plugin's `lamina_device_open`.

@@ -3,7 +3,7 @@
 use super::mapping::DeviceMapping;
 use super::safety::{SafetyCounts, SafetyEventKind};
 use crate::device::DeviceInfo;
-use crate::wire::ContactFeedback;
+use lamina_bridge::wire::ContactFeedback;
 
 /// How the renderer keeps the device stable and the operator safe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,8 +88,8 @@ struct LocalModel {
 /// # Examples
 ///
 /// ```
-/// use lamina_bridge::device::DeviceInfo;
-/// use lamina_bridge::haptics::{DeviceMapping, ForceRenderer, RenderLimits};
+/// use lamina_haptics::device::DeviceInfo;
+/// use lamina_haptics::{DeviceMapping, ForceRenderer, RenderLimits};
 /// use lamina_bridge::wire::ContactFeedback;
 ///
 /// let info = DeviceInfo {

@@ -1,6 +1,18 @@
-//! `lamina`: the command line of the physics core.
+//! `lamina`: the command line of the physics core, one module per subcommand.
 
-mod cli;
+mod bench_effects;
+mod bench_yardstick;
+mod demo;
+mod fit;
+mod generate;
+mod haptic_link;
+mod machine;
+mod plot;
+mod profile;
+mod publish;
+mod run;
+mod study;
+mod yardstick_cmd;
 
 use clap::{Parser, Subcommand};
 use lamina_core::solver::SimdLevel;
@@ -226,36 +238,36 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Fit { materials, grid_sizes, model_grid, seed, out } => {
-            let grids = parse_list(&grid_sizes, "grid size", |g| cli::generate::parse_grid(g).ok())?;
-            let model_grid = cli::generate::parse_grid(&model_grid)?;
-            cli::fit::fit(&cli::fit::FitOptions { materials, grids, model_grid, seed, out })
+            let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
+            let model_grid = generate::parse_grid(&model_grid)?;
+            fit::fit(&fit::FitOptions { materials, grids, model_grid, seed, out })
         }
-        Command::Demo { scene, seconds, out } => cli::demo::demo(scene.as_deref(), seconds, &out),
+        Command::Demo { scene, seconds, out } => demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {
             let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
-            cli::profile::profile(scene.as_deref(), seconds, &sizes, &out)
+            profile::profile(scene.as_deref(), seconds, &sizes, &out)
         }
         Command::Generate { table3, cylinder, length, out, vtu, scene } => {
             if table3 {
-                cli::generate::table3()
+                generate::table3()
             } else if let Some(scene) = scene {
-                cli::generate::anatomy(&scene, &out, vtu.as_deref())
+                generate::anatomy(&scene, &out, vtu.as_deref())
             } else {
-                cli::generate::cylinder(cli::generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
+                generate::cylinder(generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
             }
         }
         Command::Study { what: StudyCommand::Accuracy { scene, out, quick, seconds } } => {
-            let scene = cli::run::load_scene(&scene)?;
-            cli::study::accuracy(&scene, &out, quick, seconds)
+            let scene = run::load_scene(&scene)?;
+            study::accuracy(&scene, &out, quick, seconds)
         }
-        Command::Study { what: StudyCommand::Stability { json } } => cli::study::stability(json),
+        Command::Study { what: StudyCommand::Stability { json } } => study::stability(json),
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
-            let scene = cli::run::load_scene(&scene)?;
-            cli::bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
+            let scene = run::load_scene(&scene)?;
+            bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
         }
         Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv } => {
             let prefix = (!no_publish).then_some(prefix);
-            cli::run::run(&cli::run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv })
+            run::run(&run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv })
         }
         Command::Bench {
             what:
@@ -281,7 +293,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 "all" => SimdLevel::available(),
                 list => parse_list(list, "SIMD level", SimdLevel::parse)?,
             };
-            let opts = cli::yardstick_cmd::BenchOptions {
+            let opts = yardstick_cmd::BenchOptions {
                 sizes: parse_list(&sizes, "size", LatticeSize::parse)?,
                 threads,
                 precisions: parse_list(&precision, "precision", |p| match p {
@@ -295,11 +307,11 @@ fn run(cli: Cli) -> Result<(), String> {
                 json,
                 batch: Duration::from_secs_f64(batch_seconds.max(0.01)),
             };
-            cli::yardstick_cmd::bench(&opts)
+            yardstick_cmd::bench(&opts)
         }
         Command::Yardstick { size, steps, out, precision, reference, threads } => {
             let size = LatticeSize::parse(&size).ok_or_else(|| format!("unknown size '{size}'"))?;
-            cli::yardstick_cmd::write_csv(size, steps, &precision, reference, threads, &out)
+            yardstick_cmd::write_csv(size, steps, &precision, reference, threads, &out)
         }
     }
 }

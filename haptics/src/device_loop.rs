@@ -10,10 +10,10 @@ use lamina_rt::{DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, O
 use super::mapping::DeviceMapping;
 use super::renderer::{ForceRenderer, RenderLimits};
 use super::safety::{SafetyCounts, SafetyEvent};
-use crate::clock::now_ns;
 use crate::device::{DeviceError, HapticDevice};
-use crate::wire::ToolCommand;
-use crate::{Bridge, FeedbackSubscriber, PortCreateError, ToolPublisher};
+use lamina_bridge::clock::now_ns;
+use lamina_bridge::wire::ToolCommand;
+use lamina_bridge::{Bridge, FeedbackSubscriber, PortCreateError, ToolPublisher};
 
 /// Settings of one haptics run.
 #[derive(Debug, Clone, Copy, PartialEq)]

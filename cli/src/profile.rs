@@ -17,7 +17,7 @@ fn sibling(name: &str) -> Result<PathBuf, String> {
         Ok(path)
     } else {
         Err(format!(
-            "{} not found beside lamina: build it with `cargo build --release -p lamina-bridge`",
+            "{} not found beside lamina: build the workspace first (`cargo build --release --workspace`)",
             path.display()
         ))
     }

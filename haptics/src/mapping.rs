@@ -7,7 +7,7 @@
 /// # Examples
 ///
 /// ```
-/// use lamina_bridge::haptics::DeviceMapping;
+/// use lamina_haptics::DeviceMapping;
 ///
 /// // Lamina's scenes are y-up: the device's "up" (z) becomes the model's y.
 /// let m = DeviceMapping::y_up_model([0.1, 0.05, 0.0]);

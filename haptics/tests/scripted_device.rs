@@ -1,7 +1,7 @@
 //! The scripted device against hand-computed values: interpolation, buttons, held end,
 //! malformed files named by line, the preallocated force log, and a pulled cable.
 
-use lamina_bridge::device::{DeviceError, HapticDevice, ScriptedDevice, Trajectory};
+use lamina_haptics::device::{DeviceError, HapticDevice, ScriptedDevice, Trajectory};
 
 const PRESS: &str = "# press\nt_s,x_m,y_m,z_m,buttons\n0,0,0,0.02,0\n\n1.0,0.01,0,-0.01,0\n2.0,0.01,0,-0.01,1\n";
 

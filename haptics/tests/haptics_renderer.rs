@@ -2,9 +2,9 @@
 //! own linear model (`ContactFeedback::force_at`), the device's limits, a 5 ms quiet budget,
 //! and the energy of a simulated handle bouncing on a rendered wall.
 
-use lamina_bridge::device::DeviceInfo;
-use lamina_bridge::haptics::{DeviceMapping, ForceRenderer, RenderLimits, SafetyEventKind};
 use lamina_bridge::wire::ContactFeedback;
+use lamina_haptics::device::DeviceInfo;
+use lamina_haptics::{DeviceMapping, ForceRenderer, RenderLimits, SafetyEventKind};
 
 const MS: u64 = 1_000_000;
 /// Device-loop period of these tests (4 kHz), ns.

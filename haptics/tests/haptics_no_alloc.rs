@@ -13,10 +13,10 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
-use lamina_bridge::device::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
-use lamina_bridge::haptics::{DeviceMapping, HapticsConfig, run_device_loop};
 use lamina_bridge::wire::ContactFeedback;
 use lamina_bridge::{Bridge, BridgeConfig, FeedbackPublisher};
+use lamina_haptics::device::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
+use lamina_haptics::{DeviceMapping, HapticsConfig, run_device_loop};
 use lamina_rt::RunLimit;
 
 struct Counting;

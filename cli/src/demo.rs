@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 /// The demo's device script (device frame, metres, buttons), written to the output folder.
-pub const DEMO_TRAJECTORY: &str = include_str!("../../../config/trajectories/demo_press_pull.csv");
+pub const DEMO_TRAJECTORY: &str = include_str!("../../config/trajectories/demo_press_pull.csv");
 
 fn sibling(name: &str) -> Result<PathBuf, String> {
     let path = std::env::current_exe().map_err(|e| e.to_string())?.with_file_name(name);

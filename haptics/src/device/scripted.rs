@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
-use crate::clock::now_ns;
+use lamina_bridge::clock::now_ns;
 
 /// One row of a trajectory: where the handle is at a script time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,7 +27,7 @@ pub struct TrajectoryPoint {
 /// # Examples
 ///
 /// ```
-/// use lamina_bridge::device::Trajectory;
+/// use lamina_haptics::device::Trajectory;
 ///
 /// let t = Trajectory::parse("t_s,x_m,y_m,z_m\n0,0,0,0.02\n1,0,0,-0.01\n", "press.csv").unwrap();
 /// let z = t.position_at(0.5)[2]; // halfway from 2 cm above to 1 cm below

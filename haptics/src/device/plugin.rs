@@ -1,4 +1,4 @@
-//! Devices in shared libraries built against `bridge/include/lamina_device.h`: a vendor SDK
+//! Devices in shared libraries built against `haptics/include/lamina_device.h`: a vendor SDK
 //! wrapper loads without rebuilding Lamina.
 
 use std::ffi::{CStr, CString, c_char, c_int, c_void};

@@ -1,9 +1,9 @@
-//! The C plugin ABI end to end: `bridge/plugins/sim_device.c` is compiled here with the
-//! system C compiler against `bridge/include/lamina_device.h` (proving the header builds in
+//! The C plugin ABI end to end: `haptics/plugins/sim_device.c` is compiled here with the
+//! system C compiler against `haptics/include/lamina_device.h` (proving the header builds in
 //! plain C), loaded with `PluginDevice`, and driven. The simulated handle is a 0.1 kg mass on a
 //! 50 N/m spring to the origin, stepped 1 ms per read, so a constant force F settles it at F/k.
 
-use lamina_bridge::device::{DEVICE_ABI_VERSION, DeviceError, HapticDevice, PluginDevice};
+use lamina_haptics::device::{DEVICE_ABI_VERSION, DeviceError, HapticDevice, PluginDevice};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
