@@ -1,11 +1,19 @@
 //! Scenes: which model, which solver, which effects, which real-time budget. Scenes are TOML
 //! files in `config/scenes/`; [`Scene::builtin_default`] is used when none is given.
 
+mod effects_section;
 mod layered_block;
+mod model_section;
+mod realtime_section;
 mod scene_file;
+mod section;
+mod solver_section;
+mod tool_section;
 mod tool_settings;
 
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
+pub use model_section::ModelSource;
+pub use realtime_section::{OverrunChoice, RealtimeSettings};
 pub(crate) use scene_file::line_column;
-pub use scene_file::{ModelSource, OverrunChoice, Precision, RealtimeSettings, Scene, SceneLoadError};
+pub use scene_file::{Precision, Scene, SceneLoadError};
 pub use tool_settings::{ToolSettings, ToolSource};

@@ -1,13 +1,17 @@
-//! The scene file (TOML) and its loading, with errors that name file, line and column.
+//! The scene file (TOML) and its loading, with errors that name file, line and column. Each
+//! table has its own reader (`model_section.rs`, `solver_section.rs`, `effects_section.rs`,
+//! `tool_section.rs`, `realtime_section.rs`); this file puts them together.
 
-use super::layered_block::{BlockSpec, LayerMaterial, layered_block};
-use super::tool_settings::{ToolSettings, ToolSource};
+use super::effects_section::{RawEffects, effects};
+use super::layered_block::layered_block;
+use super::model_section::{ModelSource, RawModel, model_source};
+use super::realtime_section::{RawRealtime, RealtimeSettings, realtime_settings};
+use super::section::FieldError;
+use super::solver_section::{RawSolver, solver_parameters};
+use super::tool_settings::ToolSettings;
 use crate::model::Model;
-use crate::solver::{
-    BoneMotion, DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, PointLoad, SimdLevel,
-    Substeps,
-};
-use crate::yardstick::{LatticeSize, lattice_model};
+use crate::solver::{Effects, IntegrationParameters};
+use crate::yardstick::lattice_model;
 use serde::Deserialize;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -22,53 +26,6 @@ pub enum Precision {
     F32,
     /// `f64`: reference runs.
     F64,
-}
-
-/// Where the model comes from.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ModelSource {
-    /// The built-in layered block.
-    LayeredBlock(BlockSpec),
-    /// The yardstick lattice.
-    Yardstick(LatticeSize),
-    /// The generator's synthetic cylindrical limb (W columns × H rows, default materials).
-    CylinderLimb {
-        /// Columns around.
-        columns: u32,
-        /// Rows along.
-        rows: u32,
-        /// Length, m.
-        length: f64,
-    },
-    /// A model file (XML), path relative to the scene file.
-    File(PathBuf),
-    /// Generated from segmented surfaces (paths relative to the scene file); see
-    /// [`crate::generator::generate_anatomy`].
-    Anatomy(Box<crate::generator::AnatomySpec>),
-}
-
-/// What the real-time loop does when a tick overruns.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OverrunChoice {
-    /// Drop missed periods and realign to the grid.
-    Skip,
-    /// Run missed ticks back to back until on time.
-    CatchUp,
-}
-
-/// Real-time settings of the core process.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RealtimeSettings {
-    /// CPU to pin the loop to. Default: the last CPU.
-    pub cpu: Option<usize>,
-    /// SCHED_FIFO priority (1–99). Default 80; `None` in the file as `0`.
-    pub fifo_priority: Option<i32>,
-    /// `mlockall` the process. Default true.
-    pub lock_memory: bool,
-    /// Frame budget, µs. Default: the period.
-    pub budget_us: Option<f64>,
-    /// Overrun policy. Default skip.
-    pub overrun: OverrunChoice,
 }
 
 /// A loaded scene.
@@ -120,7 +77,9 @@ pub enum SceneLoadError {
     Value {
         /// File.
         path: PathBuf,
-        /// Field, e.g. `effects.loads[2].force`.
+        /// 1-based line of the field's key (or of the nearest enclosing one), when found.
+        line: Option<usize>,
+        /// Field, e.g. `effects.loads[2]`.
         field: String,
         /// What is wrong.
         message: String,
@@ -139,7 +98,10 @@ impl fmt::Display for SceneLoadError {
         match self {
             Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
             Self::Syntax { path, line, column, message } => write!(f, "{}:{line}:{column}: {message}", path.display()),
-            Self::Value { path, field, message } => write!(f, "{}: {field}: {message}", path.display()),
+            Self::Value { path, line: Some(line), field, message } => {
+                write!(f, "{}:{line}: {field}: {message}", path.display())
+            }
+            Self::Value { path, line: None, field, message } => write!(f, "{}: {field}: {message}", path.display()),
             Self::Model { path, message } => write!(f, "{}: model: {message}", path.display()),
         }
     }
@@ -162,147 +124,57 @@ struct RawScene {
     realtime: RawRealtime,
 }
 
-#[derive(Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-enum RawModel {
-    LayeredBlock {
-        #[serde(flatten)]
-        spec: Box<BlockSpecPartial>,
-    },
-    Yardstick {
-        size: String,
-    },
-    CylinderLimb {
-        columns: Option<u32>,
-        rows: Option<u32>,
-        length: Option<f64>,
-    },
-    File {
-        path: PathBuf,
-    },
-    Anatomy {
-        skin: PathBuf,
-        fat_muscle: PathBuf,
-        bone: PathBuf,
-        z_range_mm: [f64; 2],
-        columns: u32,
-        rows: u32,
-        skin_thickness_mm: Option<f64>,
-        min_layer_mm: Option<f64>,
-    },
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct BlockSpecPartial {
-    nx: Option<usize>,
-    nz: Option<usize>,
-    spacing: Option<f64>,
-    muscle_rows: Option<usize>,
-    fat_rows: Option<usize>,
-    skin_rows: Option<usize>,
-    density: Option<f64>,
-    skin: Option<LayerMaterial>,
-    fat: Option<LayerMaterial>,
-    muscle: Option<LayerMaterial>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct RawSolver {
-    integrator: Option<String>,
-    substeps: Option<toml::Value>,
-    threads: Option<usize>,
-    simd: Option<String>,
-    stability_safety: Option<f64>,
-    max_substeps: Option<u32>,
-    cg_tolerance: Option<f64>,
-    cg_max_iterations: Option<u32>,
-    rayleigh_alpha: Option<f64>,
-    rayleigh_beta: Option<f64>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct RawEffects {
-    gravity: Option<[f64; 3]>,
-    viscous_damping: Option<f64>,
-    #[serde(default)]
-    spring_damping: bool,
-    #[serde(default)]
-    bone: bool,
-    bone_motion: Option<RawBoneMotion>,
-    #[serde(default)]
-    loads: Vec<RawLoad>,
-    #[serde(default)]
-    handles: Vec<RawHandle>,
-    guard: Option<RawGuard>,
-    tool: Option<RawTool>,
-    skin_volume: Option<f64>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawTool {
-    radius: f64,
-    stiffness: f64,
-    source: String,
-    start: Option<[f64; 3]>,
-    velocity: Option<[f64; 3]>,
-    device_origin: Option<[f64; 3]>,
-    timeout_ms: Option<f64>,
-    min_radius: Option<f64>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawBoneMotion {
-    amplitude: [f64; 3],
-    frequency_hz: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawLoad {
-    node: u32,
-    force: [f64; 3],
-    #[serde(default)]
-    ramp_s: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawHandle {
-    node: u32,
-    target: [f64; 3],
-    stiffness: f64,
-    #[serde(default)]
-    damping: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum RawGuard {
-    Flag(bool),
-    Settings { max_speed: Option<f64>, max_displacement: Option<f64>, retries: Option<u32> },
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct RawRealtime {
-    cpu: Option<usize>,
-    fifo_priority: Option<i32>,
-    lock_memory: Option<bool>,
-    budget_us: Option<f64>,
-    overrun: Option<String>,
-}
-
 /// 1-based line and column of byte `offset` in `text` (for TOML errors).
 pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     (line, column)
+}
+
+/// `rate_hz`: the core loop's tick rate, Hz (default 1000).
+fn rate(raw: Option<u32>) -> Result<u32, FieldError> {
+    match raw.unwrap_or(1000) {
+        r @ 1..=100_000 => Ok(r),
+        _ => Err(FieldError::new("rate_hz", "must be between 1 and 100000 Hz")),
+    }
+}
+
+/// `precision`: `"f32"` (default) or `"f64"`.
+fn precision(raw: Option<&str>) -> Result<Precision, FieldError> {
+    match raw.unwrap_or("f32") {
+        "f32" => Ok(Precision::F32),
+        "f64" => Ok(Precision::F64),
+        _ => Err(FieldError::new("precision", "must be \"f32\" or \"f64\"")),
+    }
+}
+
+/// 1-based line of dotted `field` (`effects.loads[2]`, `solver.threads`) in scene `text`:
+/// the line of its key, or of the nearest enclosing key or array element found.
+fn field_line(text: &str, field: &str) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let mut table = root.get_ref();
+    let mut span = None;
+    for part in field.split('.') {
+        let (key, index) = match part.split_once('[') {
+            Some((k, i)) => (k, i.trim_end_matches(']').parse::<usize>().ok()),
+            None => (part, None),
+        };
+        let Some((k, v)) = table.get_key_value(key) else { break };
+        span = Some(k.span());
+        let mut value = v.get_ref();
+        if let (Some(i), DeValue::Array(items)) = (index, value) {
+            let Some(item) = items.get(i) else { break };
+            span = Some(item.span());
+            value = item.get_ref();
+        }
+        match value {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    span.map(|s| line_column(text, s.start).0)
 }
 
 impl Scene {
@@ -325,278 +197,19 @@ impl Scene {
             let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
             SceneLoadError::Syntax { path: file.clone(), line, column, message: e.message().to_string() }
         })?;
-        let value_err = |field: &str, message: &str| SceneLoadError::Value {
+        let located = |e: FieldError| SceneLoadError::Value {
             path: file.clone(),
-            field: field.into(),
-            message: message.into(),
+            line: field_line(text, &e.field),
+            field: e.field,
+            message: e.message,
         };
-        let rate_hz = raw.rate_hz.unwrap_or(1000);
-        if rate_hz == 0 || rate_hz > 100_000 {
-            return Err(value_err("rate_hz", "must be between 1 and 100000 Hz"));
-        }
-        let precision = match raw.precision.as_deref().unwrap_or("f32") {
-            "f32" => Precision::F32,
-            "f64" => Precision::F64,
-            _ => return Err(value_err("precision", "must be \"f32\" or \"f64\"")),
-        };
-        let model = match raw.model {
-            None => ModelSource::LayeredBlock(BlockSpec::default()),
-            Some(RawModel::LayeredBlock { spec }) => {
-                let d = BlockSpec::default();
-                let s = BlockSpec {
-                    nx: spec.nx.unwrap_or(d.nx),
-                    nz: spec.nz.unwrap_or(d.nz),
-                    spacing: spec.spacing.unwrap_or(d.spacing),
-                    muscle_rows: spec.muscle_rows.unwrap_or(d.muscle_rows),
-                    fat_rows: spec.fat_rows.unwrap_or(d.fat_rows),
-                    skin_rows: spec.skin_rows.unwrap_or(d.skin_rows),
-                    density: spec.density.unwrap_or(d.density),
-                    skin: spec.skin.unwrap_or(d.skin),
-                    fat: spec.fat.unwrap_or(d.fat),
-                    muscle: spec.muscle.unwrap_or(d.muscle),
-                };
-                if s.nx < 2 || s.nz < 2 || s.nx * s.nz * s.rows() > 50_000_000 {
-                    return Err(value_err("model", "nx and nz must be at least 2 and the block at most 5e7 nodes"));
-                }
-                if !(s.spacing.is_finite() && s.spacing > 0.0 && s.density.is_finite() && s.density > 0.0) {
-                    return Err(value_err("model", "spacing and density must be finite and positive"));
-                }
-                for (name, m) in [("skin", &s.skin), ("fat", &s.fat), ("muscle", &s.muscle)] {
-                    if !m.is_valid() {
-                        return Err(value_err(
-                            &format!("model.{name}"),
-                            "material values must be finite and non-negative",
-                        ));
-                    }
-                }
-                ModelSource::LayeredBlock(s)
-            }
-            Some(RawModel::Yardstick { size }) => ModelSource::Yardstick(
-                LatticeSize::parse(&size).ok_or_else(|| value_err("model.size", "small, medium, large or NXxNYxNZ"))?,
-            ),
-            Some(RawModel::CylinderLimb { columns, rows, length }) => {
-                let d = crate::generator::CylinderLimb::default();
-                let (columns, rows) = (columns.unwrap_or(d.grid.columns), rows.unwrap_or(d.grid.rows));
-                let length = length.unwrap_or(d.length);
-                if !((3..=4096).contains(&columns) && (1..=4096).contains(&rows) && length.is_finite() && length > 0.0)
-                {
-                    return Err(value_err("model", "columns 3..=4096, rows 1..=4096, length finite and positive"));
-                }
-                ModelSource::CylinderLimb { columns, rows, length }
-            }
-            Some(RawModel::File { path: p }) => {
-                let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
-                ModelSource::File(base.join(p))
-            }
-            Some(RawModel::Anatomy {
-                skin,
-                fat_muscle,
-                bone,
-                z_range_mm,
-                columns,
-                rows,
-                skin_thickness_mm,
-                min_layer_mm,
-            }) => {
-                let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
-                let skin_thickness = skin_thickness_mm.unwrap_or(2.0) * 1e-3;
-                let min_layer = min_layer_mm.unwrap_or(1.0) * 1e-3;
-                let ok = z_range_mm.iter().all(|z| z.is_finite())
-                    && z_range_mm[0] < z_range_mm[1]
-                    && (3..=4096).contains(&columns)
-                    && (1..=4096).contains(&rows)
-                    && skin_thickness.is_finite()
-                    && skin_thickness > 0.0
-                    && min_layer.is_finite()
-                    && min_layer > 0.0;
-                if !ok {
-                    return Err(value_err(
-                        "model",
-                        "z_range_mm increasing, columns 3..=4096, rows 1..=4096, skin_thickness_mm and min_layer_mm positive",
-                    ));
-                }
-                ModelSource::Anatomy(Box::new(crate::generator::AnatomySpec {
-                    skin: base.join(skin),
-                    fat_muscle: base.join(fat_muscle),
-                    bone: base.join(bone),
-                    z_range: (z_range_mm[0] * 1e-3, z_range_mm[1] * 1e-3),
-                    grid: crate::generator::GridSize::new(columns, rows),
-                    skin_thickness,
-                    min_layer,
-                    materials: crate::generator::Materials::default(),
-                }))
-            }
-        };
-        let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
-        let s = raw.solver;
-        if let Some(name) = s.integrator {
-            solver.integrator = IntegratorKind::parse(&name)
-                .ok_or_else(|| value_err("solver.integrator", "symplectic_euler, rk4 or implicit_euler"))?;
-        }
-        match s.substeps {
-            None => {}
-            Some(toml::Value::String(v)) if v == "auto" => solver.substeps = Substeps::Auto,
-            Some(toml::Value::Integer(n)) if (1..=100_000).contains(&n) => solver.substeps = Substeps::Fixed(n as u32),
-            Some(_) => return Err(value_err("solver.substeps", "\"auto\" or an integer from 1 to 100000")),
-        }
-        if let Some(t) = s.threads {
-            if t == 0 || t > 256 {
-                return Err(value_err("solver.threads", "between 1 and 256"));
-            }
-            solver.threads = t;
-        }
-        if let Some(level) = s.simd {
-            solver.simd =
-                SimdLevel::parse(&level).ok_or_else(|| value_err("solver.simd", "auto, baseline, avx2 or avx512"))?;
-        }
-        let positive = |v: Option<f64>, field: &str, into: &mut f64| -> Result<(), SceneLoadError> {
-            if let Some(v) = v {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(value_err(field, "must be finite and non-negative"));
-                }
-                *into = v;
-            }
-            Ok(())
-        };
-        positive(s.stability_safety, "solver.stability_safety", &mut solver.stability_safety)?;
-        positive(s.cg_tolerance, "solver.cg_tolerance", &mut solver.cg_tolerance)?;
-        positive(s.rayleigh_alpha, "solver.rayleigh_alpha", &mut solver.rayleigh_alpha)?;
-        positive(s.rayleigh_beta, "solver.rayleigh_beta", &mut solver.rayleigh_beta)?;
-        if let Some(m) = s.max_substeps {
-            solver.max_substeps = m.max(1);
-        }
-        if let Some(m) = s.cg_max_iterations {
-            solver.cg_max_iterations = m.max(1);
-        }
-        let e = raw.effects;
-        let finite3 = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
-        if e.gravity.as_ref().is_some_and(|g| !finite3(g)) {
-            return Err(value_err("effects.gravity", "must be finite"));
-        }
-        let mut viscous = None;
-        positive(e.viscous_damping, "effects.viscous_damping", viscous.get_or_insert(0.0))?;
-        if e.viscous_damping.is_none() {
-            viscous = None;
-        }
-        if e.skin_volume.is_some_and(|k| !(k.is_finite() && k > 0.0)) {
-            return Err(value_err("effects.skin_volume", "must be finite and positive (Pa)"));
-        }
-        let mut loads = Vec::new();
-        for (i, l) in e.loads.iter().enumerate() {
-            if !(finite3(&l.force) && l.ramp_s.is_finite() && l.ramp_s >= 0.0) {
-                return Err(value_err(&format!("effects.loads[{i}]"), "force must be finite and ramp_s finite, >= 0"));
-            }
-            loads.push(PointLoad { node: l.node, force: l.force, ramp_s: l.ramp_s });
-        }
-        let mut handles = Vec::new();
-        for (i, h) in e.handles.iter().enumerate() {
-            if !(finite3(&h.target)
-                && h.stiffness.is_finite()
-                && h.stiffness >= 0.0
-                && h.damping.is_finite()
-                && h.damping >= 0.0)
-            {
-                return Err(value_err(
-                    &format!("effects.handles[{i}]"),
-                    "target, stiffness and damping must be finite, >= 0",
-                ));
-            }
-            handles.push(DragHandle { node: h.node, target: h.target, stiffness: h.stiffness, damping: h.damping });
-        }
-        let bone_motion = match e.bone_motion {
-            Some(m) if finite3(&m.amplitude) && m.frequency_hz.is_finite() => {
-                Some(BoneMotion { amplitude: m.amplitude, frequency_hz: m.frequency_hz })
-            }
-            Some(_) => return Err(value_err("effects.bone_motion", "must be finite")),
-            None => None,
-        };
-        let guard = match e.guard {
-            None | Some(RawGuard::Flag(false)) => None,
-            Some(RawGuard::Flag(true)) => Some(GuardSettings::default()),
-            Some(RawGuard::Settings { max_speed, max_displacement, retries }) => {
-                let d = GuardSettings::default();
-                let g = GuardSettings {
-                    max_speed: max_speed.unwrap_or(d.max_speed),
-                    max_displacement: max_displacement.unwrap_or(d.max_displacement),
-                    retries: retries.unwrap_or(d.retries),
-                };
-                if !(g.max_speed > 0.0 && g.max_displacement > 0.0) {
-                    return Err(value_err("effects.guard", "max_speed and max_displacement must be positive"));
-                }
-                Some(g)
-            }
-        };
-        let tool = match e.tool {
-            None => None,
-            Some(t) => {
-                if !(t.radius.is_finite() && t.radius > 0.0 && t.stiffness.is_finite() && t.stiffness > 0.0) {
-                    return Err(value_err("effects.tool", "radius and stiffness must be finite and positive"));
-                }
-                let source = match t.source.as_str() {
-                    "scripted" => {
-                        if t.min_radius.is_some() {
-                            return Err(value_err("effects.tool.min_radius", "only for source = \"haptics\""));
-                        }
-                        let start = t.start.ok_or_else(|| value_err("effects.tool.start", "required when scripted"))?;
-                        let velocity = t.velocity.unwrap_or([0.0; 3]);
-                        if !(finite3(&start) && finite3(&velocity)) {
-                            return Err(value_err("effects.tool", "start and velocity must be finite"));
-                        }
-                        ToolSource::Scripted { start, velocity }
-                    }
-                    "haptics" => {
-                        let device_origin = t.device_origin.ok_or_else(|| {
-                            value_err("effects.tool.device_origin", "required when source = \"haptics\"")
-                        })?;
-                        let timeout_s = t.timeout_ms.unwrap_or(100.0) * 1e-3;
-                        if !(finite3(&device_origin) && timeout_s.is_finite() && timeout_s > 0.0) {
-                            return Err(value_err("effects.tool", "device_origin finite and timeout_ms positive"));
-                        }
-                        let min_radius = t.min_radius.unwrap_or(t.radius);
-                        if !(min_radius.is_finite() && min_radius > 0.0 && min_radius <= t.radius) {
-                            return Err(value_err("effects.tool.min_radius", "finite, positive and at most radius"));
-                        }
-                        ToolSource::Haptics { device_origin, timeout_s, min_radius }
-                    }
-                    _ => return Err(value_err("effects.tool.source", "\"scripted\" or \"haptics\"")),
-                };
-                Some(ToolSettings { radius: t.radius, stiffness: t.stiffness, source })
-            }
-        };
-        let effects = Effects {
-            gravity: e.gravity,
-            viscous_damping: viscous,
-            spring_damping: e.spring_damping,
-            bone: e.bone,
-            bone_motion,
-            loads,
-            handles,
-            guard,
-            tool: tool.and_then(|t| t.initial_sphere()),
-            skin_volume: e.skin_volume,
-        };
-        let r = raw.realtime;
-        let overrun = match r.overrun.as_deref().unwrap_or("skip") {
-            "skip" => OverrunChoice::Skip,
-            "catch_up" | "catch-up" => OverrunChoice::CatchUp,
-            _ => return Err(value_err("realtime.overrun", "\"skip\" or \"catch_up\"")),
-        };
-        if r.budget_us.is_some_and(|b| !(b.is_finite() && b > 0.0)) {
-            return Err(value_err("realtime.budget_us", "must be finite and positive"));
-        }
-        let fifo_priority = match r.fifo_priority {
-            None => Some(80),
-            Some(0) => None,
-            Some(p) if (1..=99).contains(&p) => Some(p),
-            Some(_) => return Err(value_err("realtime.fifo_priority", "0 (off) or 1..=99")),
-        };
-        let realtime = RealtimeSettings {
-            cpu: r.cpu,
-            fifo_priority,
-            lock_memory: r.lock_memory.unwrap_or(true),
-            budget_us: r.budget_us,
-            overrun,
-        };
+        let rate_hz = rate(raw.rate_hz).map_err(located)?;
+        let precision = precision(raw.precision.as_deref()).map_err(located)?;
+        let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
+        let model = model_source(raw.model, base).map_err(located)?;
+        let solver = solver_parameters(raw.solver, rate_hz).map_err(located)?;
+        let (effects, tool) = effects(raw.effects).map_err(located)?;
+        let realtime = realtime_settings(raw.realtime).map_err(located)?;
         Ok(Self {
             name: raw.name.unwrap_or_else(|| "unnamed".into()),
             rate_hz,
@@ -641,6 +254,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::ToolSource;
 
     #[test]
     fn scene_builtin_default_loads_works() {
@@ -712,39 +326,6 @@ mod tests {
         assert_eq!(tool.shell_radius(), 0.003);
         assert_eq!(tool.commanded_radius(0.004), (0.004, false));
         assert_eq!(tool.commanded_radius(0.001), (0.003, true));
-    }
-
-    #[test]
-    fn scene_tool_bad_values_name_the_field_fails() {
-        let cases = [
-            ("source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.device_origin"),
-            ("source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.start"),
-            ("source = \"wand\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.source"),
-            ("source = \"scripted\"\nradius = -0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
-            ("source = \"scripted\"\nradius = nan\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
-            (
-                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.02\n",
-                "effects.tool.min_radius",
-            ),
-            (
-                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.0\n",
-                "effects.tool.min_radius",
-            ),
-            (
-                "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\nmin_radius = 0.005\n",
-                "effects.tool.min_radius",
-            ),
-        ];
-        for (body, field) in cases {
-            let text = format!("[effects.tool]\n{body}");
-            match Scene::from_toml_str(&text, Some(Path::new("tool.toml"))) {
-                Err(SceneLoadError::Value { field: f, path, .. }) => {
-                    assert_eq!(f, field, "{body}");
-                    assert_eq!(path, Path::new("tool.toml"));
-                }
-                other => panic!("{body}: expected a value error on {field}, got {other:?}"),
-            }
-        }
     }
 
     #[test]

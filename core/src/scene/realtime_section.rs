@@ -1,0 +1,102 @@
+//! The scene's `[realtime]` table: how the core process runs its fixed-rate loop.
+
+use super::section::FieldError;
+use serde::Deserialize;
+
+/// What the real-time loop does when a tick overruns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OverrunChoice {
+    /// Drop missed periods and realign to the grid.
+    Skip,
+    /// Run missed ticks back to back until on time.
+    CatchUp,
+}
+
+/// Real-time settings of the core process.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RealtimeSettings {
+    /// CPU to pin the loop to. Default: the last CPU.
+    pub cpu: Option<usize>,
+    /// SCHED_FIFO priority (1–99). Default 80; `None` in the file as `0`.
+    pub fifo_priority: Option<i32>,
+    /// `mlockall` the process. Default true.
+    pub lock_memory: bool,
+    /// Frame budget, µs. Default: the period.
+    pub budget_us: Option<f64>,
+    /// Overrun policy. Default skip.
+    pub overrun: OverrunChoice,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRealtime {
+    cpu: Option<usize>,
+    fifo_priority: Option<i32>,
+    lock_memory: Option<bool>,
+    budget_us: Option<f64>,
+    overrun: Option<String>,
+}
+
+/// The `[realtime]` table over the defaults.
+pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, FieldError> {
+    let overrun = match r.overrun.as_deref().unwrap_or("skip") {
+        "skip" => OverrunChoice::Skip,
+        "catch_up" | "catch-up" => OverrunChoice::CatchUp,
+        _ => return Err(FieldError::new("realtime.overrun", "\"skip\" or \"catch_up\"")),
+    };
+    if r.budget_us.is_some_and(|b| !(b.is_finite() && b > 0.0)) {
+        return Err(FieldError::new("realtime.budget_us", "must be finite and positive"));
+    }
+    let fifo_priority = match r.fifo_priority {
+        None => Some(80),
+        Some(0) => None,
+        Some(p) if (1..=99).contains(&p) => Some(p),
+        Some(_) => return Err(FieldError::new("realtime.fifo_priority", "0 (off) or 1..=99")),
+    };
+    Ok(RealtimeSettings {
+        cpu: r.cpu,
+        fifo_priority,
+        lock_memory: r.lock_memory.unwrap_or(true),
+        budget_us: r.budget_us,
+        overrun,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(body: &str) -> Result<RealtimeSettings, FieldError> {
+        realtime_settings(toml::from_str(body).expect("well-formed"))
+    }
+
+    #[test]
+    fn realtime_section_defaults_and_values_works() {
+        let d = parse("").unwrap();
+        assert_eq!(
+            d,
+            RealtimeSettings {
+                cpu: None,
+                fifo_priority: Some(80),
+                lock_memory: true,
+                budget_us: None,
+                overrun: OverrunChoice::Skip
+            }
+        );
+        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\n")
+            .unwrap();
+        assert_eq!((r.cpu, r.fifo_priority, r.lock_memory), (Some(1), None, false));
+        assert_eq!((r.budget_us, r.overrun), (Some(800.0), OverrunChoice::CatchUp));
+    }
+
+    #[test]
+    fn realtime_section_bad_values_name_the_field_fails() {
+        for (body, field) in [
+            ("overrun = \"panic\"\n", "realtime.overrun"),
+            ("budget_us = 0.0\n", "realtime.budget_us"),
+            ("fifo_priority = 100\n", "realtime.fifo_priority"),
+        ] {
+            assert_eq!(parse(body).expect_err(body).field, field, "{body}");
+        }
+    }
+}

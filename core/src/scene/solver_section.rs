@@ -1,0 +1,102 @@
+//! The scene's `[solver]` table: integrator, sub-steps, threads, SIMD level and the
+//! integrators' tolerances.
+
+use super::section::{FieldError, non_negative};
+use crate::solver::{IntegrationParameters, IntegratorKind, SimdLevel, Substeps};
+use serde::Deserialize;
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSolver {
+    integrator: Option<String>,
+    substeps: Option<toml::Value>,
+    threads: Option<usize>,
+    simd: Option<String>,
+    stability_safety: Option<f64>,
+    max_substeps: Option<u32>,
+    cg_tolerance: Option<f64>,
+    cg_max_iterations: Option<u32>,
+    rayleigh_alpha: Option<f64>,
+    rayleigh_beta: Option<f64>,
+}
+
+/// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`.
+pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<IntegrationParameters, FieldError> {
+    let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
+    if let Some(name) = raw.integrator {
+        solver.integrator = IntegratorKind::parse(&name)
+            .ok_or_else(|| FieldError::new("solver.integrator", "symplectic_euler, rk4 or implicit_euler"))?;
+    }
+    match raw.substeps {
+        None => {}
+        Some(toml::Value::String(v)) if v == "auto" => solver.substeps = Substeps::Auto,
+        Some(toml::Value::Integer(n)) if (1..=100_000).contains(&n) => solver.substeps = Substeps::Fixed(n as u32),
+        Some(_) => return Err(FieldError::new("solver.substeps", "\"auto\" or an integer from 1 to 100000")),
+    }
+    if let Some(t) = raw.threads {
+        if t == 0 || t > 256 {
+            return Err(FieldError::new("solver.threads", "between 1 and 256"));
+        }
+        solver.threads = t;
+    }
+    if let Some(level) = raw.simd {
+        solver.simd =
+            SimdLevel::parse(&level).ok_or_else(|| FieldError::new("solver.simd", "auto, baseline, avx2 or avx512"))?;
+    }
+    let fields = [
+        (raw.stability_safety, "solver.stability_safety", &mut solver.stability_safety),
+        (raw.cg_tolerance, "solver.cg_tolerance", &mut solver.cg_tolerance),
+        (raw.rayleigh_alpha, "solver.rayleigh_alpha", &mut solver.rayleigh_alpha),
+        (raw.rayleigh_beta, "solver.rayleigh_beta", &mut solver.rayleigh_beta),
+    ];
+    for (value, field, into) in fields {
+        if let Some(v) = non_negative(value, field)? {
+            *into = v;
+        }
+    }
+    if let Some(m) = raw.max_substeps {
+        solver.max_substeps = m.max(1);
+    }
+    if let Some(m) = raw.cg_max_iterations {
+        solver.cg_max_iterations = m.max(1);
+    }
+    Ok(solver)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(body: &str) -> Result<IntegrationParameters, FieldError> {
+        solver_parameters(toml::from_str(body).expect("well-formed"), 500)
+    }
+
+    #[test]
+    fn solver_section_defaults_and_values_works() {
+        let d = IntegrationParameters::default();
+        let p = parse("").unwrap();
+        assert_eq!(p.dt, 1.0 / 500.0);
+        assert_eq!((p.integrator, p.substeps, p.threads), (d.integrator, d.substeps, d.threads));
+        let p = parse("integrator = \"rk4\"\nsubsteps = 4\nthreads = 2\ncg_tolerance = 1e-6\n").unwrap();
+        assert_eq!((p.integrator, p.substeps, p.threads), (IntegratorKind::Rk4, Substeps::Fixed(4), 2));
+        assert_eq!(p.cg_tolerance, 1e-6);
+        assert_eq!(parse("substeps = \"auto\"\n").unwrap().substeps, Substeps::Auto);
+    }
+
+    #[test]
+    fn solver_section_bad_values_name_the_field_fails() {
+        let cases = [
+            ("integrator = \"leapfrog\"\n", "solver.integrator"),
+            ("substeps = 0\n", "solver.substeps"),
+            ("substeps = \"many\"\n", "solver.substeps"),
+            ("threads = 0\n", "solver.threads"),
+            ("simd = \"sse9\"\n", "solver.simd"),
+            ("stability_safety = -0.5\n", "solver.stability_safety"),
+            ("cg_tolerance = nan\n", "solver.cg_tolerance"),
+            ("rayleigh_beta = inf\n", "solver.rayleigh_beta"),
+        ];
+        for (body, field) in cases {
+            assert_eq!(parse(body).expect_err(body).field, field, "{body}");
+        }
+    }
+}

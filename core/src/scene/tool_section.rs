@@ -1,0 +1,91 @@
+//! The scene's `[effects.tool]` table: the haptic tool, scripted or driven by the haptics
+//! process.
+
+use super::section::{FieldError, finite3};
+use super::tool_settings::{ToolSettings, ToolSource};
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTool {
+    radius: f64,
+    stiffness: f64,
+    source: String,
+    start: Option<[f64; 3]>,
+    velocity: Option<[f64; 3]>,
+    device_origin: Option<[f64; 3]>,
+    timeout_ms: Option<f64>,
+    min_radius: Option<f64>,
+}
+
+/// The `[effects.tool]` table.
+pub(super) fn tool_settings(t: RawTool) -> Result<ToolSettings, FieldError> {
+    if !(t.radius.is_finite() && t.radius > 0.0 && t.stiffness.is_finite() && t.stiffness > 0.0) {
+        return Err(FieldError::new("effects.tool", "radius and stiffness must be finite and positive"));
+    }
+    let source = match t.source.as_str() {
+        "scripted" => scripted(&t)?,
+        "haptics" => haptics(&t)?,
+        _ => return Err(FieldError::new("effects.tool.source", "\"scripted\" or \"haptics\"")),
+    };
+    Ok(ToolSettings { radius: t.radius, stiffness: t.stiffness, source })
+}
+
+fn scripted(t: &RawTool) -> Result<ToolSource, FieldError> {
+    if t.min_radius.is_some() {
+        return Err(FieldError::new("effects.tool.min_radius", "only for source = \"haptics\""));
+    }
+    let start = t.start.ok_or_else(|| FieldError::new("effects.tool.start", "required when scripted"))?;
+    let velocity = t.velocity.unwrap_or([0.0; 3]);
+    if !(finite3(&start) && finite3(&velocity)) {
+        return Err(FieldError::new("effects.tool", "start and velocity must be finite"));
+    }
+    Ok(ToolSource::Scripted { start, velocity })
+}
+
+fn haptics(t: &RawTool) -> Result<ToolSource, FieldError> {
+    let device_origin = t
+        .device_origin
+        .ok_or_else(|| FieldError::new("effects.tool.device_origin", "required when source = \"haptics\""))?;
+    let timeout_s = t.timeout_ms.unwrap_or(100.0) * 1e-3;
+    if !(finite3(&device_origin) && timeout_s.is_finite() && timeout_s > 0.0) {
+        return Err(FieldError::new("effects.tool", "device_origin finite and timeout_ms positive"));
+    }
+    let min_radius = t.min_radius.unwrap_or(t.radius);
+    if !(min_radius.is_finite() && min_radius > 0.0 && min_radius <= t.radius) {
+        return Err(FieldError::new("effects.tool.min_radius", "finite, positive and at most radius"));
+    }
+    Ok(ToolSource::Haptics { device_origin, timeout_s, min_radius })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tool_section_bad_values_name_the_field_fails() {
+        let cases = [
+            ("source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.device_origin"),
+            ("source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.start"),
+            ("source = \"wand\"\nradius = 0.01\nstiffness = 200.0\n", "effects.tool.source"),
+            ("source = \"scripted\"\nradius = -0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
+            ("source = \"scripted\"\nradius = nan\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\n", "effects.tool"),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.02\n",
+                "effects.tool.min_radius",
+            ),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nmin_radius = 0.0\n",
+                "effects.tool.min_radius",
+            ),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\nmin_radius = 0.005\n",
+                "effects.tool.min_radius",
+            ),
+        ];
+        for (body, field) in cases {
+            let raw: RawTool = toml::from_str(body).expect("well-formed");
+            assert_eq!(tool_settings(raw).expect_err(body).field, field, "{body}");
+        }
+    }
+}
