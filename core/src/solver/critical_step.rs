@@ -106,7 +106,7 @@ impl StabilityEstimate {
     pub fn critical_step(&self, integrator: IntegratorKind) -> f64 {
         let (w, g) = (self.omega_max, self.gamma_max);
         match integrator {
-            IntegratorKind::ImplicitEuler => f64::INFINITY,
+            IntegratorKind::ImplicitEuler | IntegratorKind::ImplicitFactored => f64::INFINITY,
             IntegratorKind::SymplecticEuler => {
                 if w == 0.0 {
                     if g == 0.0 { f64::INFINITY } else { 2.0 / g }

@@ -13,6 +13,25 @@ use crate::model::{Model, NodeKind};
 use crate::real::Real;
 use std::time::{Duration, Instant};
 
+/// Most tool contact points listed for an implicit solver per evaluation. Default 8192.
+pub const MAX_CONTACT_SAMPLES: usize = 8192;
+
+/// One contact point of the tool: a point on a skin triangle (barycentric weights) or a
+/// node (weights `[1, 0, 0]`), pushed along `normal` with penalty stiffness `stiffness`.
+/// Its force on node `nodes[j]` is `weights[j] · f`, and its stiffness between nodes `j`
+/// and `k` is `weights[j] weights[k] stiffness · normal normalᵀ`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactSample {
+    /// Nodes carrying the point.
+    pub nodes: [u32; 3],
+    /// Barycentric weights of the point on them.
+    pub weights: [f64; 3],
+    /// Outward unit normal (from the tool's centre).
+    pub normal: [f64; 3],
+    /// Penalty stiffness, N/m.
+    pub stiffness: f64,
+}
+
 /// Positions (m), velocities (m/s) and time (s) of every node.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State<T> {
@@ -78,6 +97,15 @@ pub struct Dynamics<T> {
     pub(crate) tool_nodes: Vec<u32>,
     /// What the tool felt at the last evaluation.
     pub(crate) tool_feedback: super::effects::ToolFeedback,
+    /// The tool's contact points at the last evaluation, with their normal stiffness, for
+    /// an implicit solver (filled only when `record_contacts` is set; at most its capacity,
+    /// [`MAX_CONTACT_SAMPLES`]).
+    pub(crate) contacts: Vec<ContactSample>,
+    /// Contact points beyond `contacts`' capacity at the last evaluation (their forces are
+    /// applied, their stiffness is not).
+    pub(crate) contacts_dropped: u32,
+    /// Whether the tool evaluation lists its contacts.
+    pub(crate) record_contacts: bool,
     /// Per-stage timers.
     pub counters: StageCounters,
 }
@@ -128,6 +156,9 @@ impl<T: Real> Dynamics<T> {
             skin_volume,
             tool_nodes,
             tool_feedback: Default::default(),
+            contacts: Vec::new(),
+            contacts_dropped: 0,
+            record_contacts: false,
             counters: StageCounters::default(),
         }
     }
@@ -138,11 +169,19 @@ impl<T: Real> Dynamics<T> {
     }
 
     /// Whether loads, handles, the tool or the skin's volume term are on.
-    fn has_external(&self) -> bool {
+    pub(crate) fn has_external(&self) -> bool {
         !self.effects.loads.is_empty()
             || !self.effects.handles.is_empty()
             || self.effects.tool.is_some()
             || self.effects.skin_volume.is_some()
+    }
+
+    /// Loads, handle, tool and skin-volume forces at `(x, v)` and time `t` into the external
+    /// array, when any of them is on.
+    pub(crate) fn eval_external_at(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64) {
+        if self.has_external() {
+            self.eval_external(x, v, t);
+        }
     }
 
     /// Writes loads, handle, tool and skin-volume forces at state `(x, v)` and time `t` into the external array.
@@ -180,6 +219,22 @@ impl<T: Real> Dynamics<T> {
             let c = tool.centre(t);
             let mut fb = super::effects::ToolFeedback { centre: c, ..Default::default() };
             let r2 = tool.radius * tool.radius;
+            let record = self.record_contacts;
+            let (contacts, dropped) = (&mut self.contacts, &mut self.contacts_dropped);
+            contacts.clear();
+            *dropped = 0;
+            let mut list = |nodes: [u32; 3], weights: [f64; 3], p: [f64; 3], k: f64| {
+                if !record {
+                    return;
+                }
+                let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+                let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
+                if contacts.len() < contacts.capacity() {
+                    contacts.push(ContactSample { nodes, weights, normal: d.map(|v| v / dist), stiffness: k });
+                } else {
+                    *dropped += 1;
+                }
+            };
             let shell = &self.skin_shell;
             let (touched, marked) = (&mut self.tool_touched, &mut self.tool_marked);
             // Pushes node `i` by `f` (N) and lists it for zeroing at the next evaluation.
@@ -213,8 +268,10 @@ impl<T: Real> Dynamics<T> {
             // Free nodes off the skin shell (deep nodes once the tool is through, or every node
             // of a model without a skin surface).
             for &i in &self.tool_nodes {
-                if let Some(f) = contact(x.get_f64(i as usize), tool.stiffness, &mut fb) {
+                let p = x.get_f64(i as usize);
+                if let Some(f) = contact(p, tool.stiffness, &mut fb) {
                     push_node(i as usize, f);
+                    list([i; 3], [1.0, 0.0, 0.0], p, tool.stiffness);
                 }
             }
             // The skin's point shell: triangles the sphere reaches.
@@ -235,6 +292,7 @@ impl<T: Real> Dynamics<T> {
                                 acc[k] += wj * f[k];
                             }
                         }
+                        list(tri.nodes, w, p, k_sample);
                     }
                 });
                 for (&node, f) in tri.nodes.iter().zip(on_nodes) {

@@ -41,6 +41,8 @@ pub struct ImplicitSolver<T> {
     p: Vec3s<T>,
     q: Vec3s<T>,
     diag: Vec3s<T>,
+    /// The prefactored preconditioner, when built (else Jacobi).
+    pub(crate) factored: Option<super::factored_preconditioner::FactoredPreconditioner<T>>,
     /// CG iterations of the last solve.
     pub last_iterations: u32,
     /// Relative residual of the last solve.
@@ -84,6 +86,7 @@ impl<T: Real> ImplicitSolver<T> {
             p: z(),
             q: z(),
             diag: z(),
+            factored: None,
             last_iterations: 0,
             last_residual: 0.0,
         }
@@ -165,6 +168,24 @@ impl<T: Real> ImplicitSolver<T> {
                 for (&i, gi) in tet.iter().zip(g) {
                     let yi = y.get(i as usize);
                     y.set(i as usize, [yi[0] + s * gi[0], yi[1] + s * gi[1], yi[2] + s * gi[2]]);
+                }
+            }
+        }
+        // The tool's contact points: stiffness along their normals (listed when the
+        // simulation asked the tool evaluation to record them).
+        for c in &dynamics.contacts {
+            let mut q = [0.0f64; 3];
+            for (&n, &w) in c.nodes.iter().zip(&c.weights) {
+                let pv = p.get_f64(n as usize);
+                for k in 0..3 {
+                    q[k] += w * pv[k];
+                }
+            }
+            let along = ck.to_f64() * c.stiffness * (c.normal[0] * q[0] + c.normal[1] * q[1] + c.normal[2] * q[2]);
+            for (&n, &w) in c.nodes.iter().zip(&c.weights) {
+                if w != 0.0 {
+                    let yv = y.get(n as usize);
+                    y.set(n as usize, [0, 1, 2].map(|k| yv[k] + T::from_f64(w * along * c.normal[k])));
                 }
             }
         }
@@ -309,7 +330,10 @@ impl<T: Real> ImplicitSolver<T> {
                 }
             }
         };
-        precondition(&self.r, &mut self.z, &self.diag);
+        match &mut self.factored {
+            Some(f) => f.apply(&self.r, &mut self.z),
+            None => precondition(&self.r, &mut self.z, &self.diag),
+        }
         self.p.copy_from(&self.z);
         let mut rz = dot(&self.r, &self.z);
         let tol = params.cg_tolerance * bnorm;
@@ -334,7 +358,10 @@ impl<T: Real> ImplicitSolver<T> {
                     r[i] -= alpha * qv[i];
                 }
             }
-            precondition(&self.r, &mut self.z, &self.diag);
+            match &mut self.factored {
+                Some(f) => f.apply(&self.r, &mut self.z),
+                None => precondition(&self.r, &mut self.z, &self.diag),
+            }
             let rz_new = dot(&self.r, &self.z);
             let beta = T::from_f64(rz_new / rz);
             rz = rz_new;

@@ -50,6 +50,8 @@ pub trait Block<T: Real>: Copy {
     fn min(self, o: Self) -> Self;
     /// `+0` in the lanes where `keep` is 0.
     fn keep(self, keep: &[u8]) -> Self;
+    /// `yes` in the lanes where `self > 0` (ordered: false for NaN), `no` elsewhere.
+    fn select_positive(self, yes: Self, no: Self) -> Self;
 }
 
 /// A block as an array, computed lane by lane.
@@ -114,6 +116,16 @@ impl<T: Real> Block<T> for ScalarBlock<T> {
         for l in 0..LANES {
             if keep[l] == 0 {
                 r[l] = T::ZERO;
+            }
+        }
+        Self(r)
+    }
+    #[inline(always)]
+    fn select_positive(self, yes: Self, no: Self) -> Self {
+        let mut r = no.0;
+        for l in 0..LANES {
+            if self.0[l] > T::ZERO {
+                r[l] = yes.0[l];
             }
         }
         Self(r)
@@ -205,6 +217,13 @@ mod avx {
                 Self(_mm256_and_ps(self.0, _mm256_castsi256_ps(mask)))
             }
         }
+        #[inline(always)]
+        fn select_positive(self, yes: Self, no: Self) -> Self {
+            unsafe {
+                let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, _mm256_setzero_ps());
+                Self(_mm256_blendv_ps(no.0, yes.0, positive))
+            }
+        }
     }
 
     impl Block<f64> for AvxF64 {
@@ -262,6 +281,14 @@ mod avx {
                 Self(_mm256_and_pd(self.0, lo), _mm256_and_pd(self.1, hi))
             }
         }
+        #[inline(always)]
+        fn select_positive(self, yes: Self, no: Self) -> Self {
+            unsafe {
+                let z = _mm256_setzero_pd();
+                let (p0, p1) = (_mm256_cmp_pd::<_CMP_GT_OQ>(self.0, z), _mm256_cmp_pd::<_CMP_GT_OQ>(self.1, z));
+                Self(_mm256_blendv_pd(no.0, yes.0, p0), _mm256_blendv_pd(no.1, yes.1, p1))
+            }
+        }
     }
 }
 
@@ -280,8 +307,18 @@ mod tests {
     fn ops<T: Real, B: Block<T>>(a: &[T], b: &[T]) -> Vec<[T; LANES]> {
         let (x, y) = (B::load(a, 0), B::load(b, 0));
         let keep = [1u8, 0, 1, 0, 1, 1, 0, 1];
-        let results =
-            [x.add(y), x.sub(y), x.mul(y), x.div(y), x.sqrt(), x.max(y), x.min(y), x.keep(&keep), B::splat(a[4])];
+        let results = [
+            x.add(y),
+            x.sub(y),
+            x.mul(y),
+            x.div(y),
+            x.sqrt(),
+            x.max(y),
+            x.min(y),
+            x.keep(&keep),
+            B::splat(a[4]),
+            x.select_positive(x, y),
+        ];
         results
             .iter()
             .map(|r| {

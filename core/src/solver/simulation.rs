@@ -17,7 +17,9 @@ use super::dynamics::{Dynamics, StageCounters, State};
 use super::effects::Effects;
 use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
+use super::implicit_factored::ImplicitFactored;
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
+use super::sparse_cholesky::FactorBuildError;
 use super::vec3s::Vec3s;
 use crate::model::{Model, ModelValidateError};
 use crate::real::Real;
@@ -94,6 +96,8 @@ pub enum SimulationBuildError {
         /// The spring with the largest stiffness over its lighter node's mass.
         stiffest: String,
     },
+    /// The implicit solvers' prefactored matrix could not be factored.
+    Factor(FactorBuildError),
 }
 
 impl fmt::Display for SimulationBuildError {
@@ -124,6 +128,7 @@ impl fmt::Display for SimulationBuildError {
                 "the model's stiffest mode is not finite (omega_max {omega_max:e} rad/s, damping rate \
                  {gamma_max:e} 1/s); stiffest spring for its mass: {stiffest}"
             ),
+            Self::Factor(e) => write!(f, "prefactored matrix: {e}"),
         }
     }
 }
@@ -167,6 +172,8 @@ pub struct Simulation<T: Real> {
     snapshot: State<T>,
     rk4: Rk4Scratch<T>,
     implicit: ImplicitSolver<T>,
+    /// Built when the integrator is [`IntegratorKind::ImplicitFactored`].
+    factored: Option<ImplicitFactored<T>>,
     stability: StabilityEstimate,
     substeps: u32,
     /// Sub-steps the critical step asks for, before the `max_substeps` clamp.
@@ -271,6 +278,7 @@ impl<T: Real> Simulation<T> {
             dynamics,
             rk4,
             implicit,
+            factored: None,
             stability,
             substeps: 1,
             substeps_needed: 1,
@@ -282,6 +290,32 @@ impl<T: Real> Simulation<T> {
         sim.substeps = sim.substeps_needed.clamp(1, u64::from(sim.params.max_substeps.max(1))) as u32;
         if let Substeps::Fixed(n) = sim.params.substeps {
             sim.substeps = n;
+        }
+        if sim.params.integrator == IntegratorKind::ImplicitEuler && sim.params.factored_preconditioner {
+            let h = sim.params.dt / sim.substeps as f64;
+            let alpha = sim.params.rayleigh_alpha + sim.dynamics.effects.viscous_damping.unwrap_or(0.0);
+            let (cm, cc, ck) = (1.0 + h * alpha, h, h * sim.params.rayleigh_beta + h * h);
+            let pre = super::factored_preconditioner::FactoredPreconditioner::new(
+                model,
+                &sim.dynamics,
+                cm,
+                cc,
+                ck,
+                sim.params.simd,
+            )
+            .map_err(SimulationBuildError::Factor)?;
+            sim.implicit.factored = Some(pre);
+            sim.dynamics.record_contacts = true;
+            sim.dynamics.contacts.reserve_exact(super::dynamics::MAX_CONTACT_SAMPLES);
+        }
+        if sim.params.integrator == IntegratorKind::ImplicitFactored {
+            let h = sim.params.dt / sim.substeps as f64;
+            let solver =
+                ImplicitFactored::new(model, &sim.dynamics, h, sim.params.factored_iterations, sim.params.simd)
+                    .map_err(SimulationBuildError::Factor)?;
+            sim.factored = Some(solver);
+            sim.dynamics.record_contacts = true;
+            sim.dynamics.contacts.reserve_exact(super::dynamics::MAX_CONTACT_SAMPLES);
         }
         Ok(sim)
     }
@@ -375,6 +409,11 @@ impl<T: Real> Simulation<T> {
     /// Zeroes the per-stage timers.
     pub fn reset_counters(&mut self) {
         self.dynamics.counters = StageCounters::default();
+    }
+
+    /// The real-time implicit integrator, when it is the integrator.
+    pub fn implicit_factored(&self) -> Option<&ImplicitFactored<T>> {
+        self.factored.as_ref()
     }
 
     /// CG iterations and relative residual of the last implicit solve.
@@ -502,6 +541,13 @@ impl<T: Real> Simulation<T> {
                 IntegratorKind::ImplicitEuler => {
                     self.implicit.substep(&mut self.dynamics, &self.params, &mut self.state, h)
                 }
+                IntegratorKind::ImplicitFactored => match &mut self.factored {
+                    Some(solver) if solver.step_size() == h => {
+                        self.dynamics.move_bone(&mut self.state, start_time + h * (k + 1) as f64);
+                        solver.step(&mut self.dynamics, &mut self.state)
+                    }
+                    _ => self.implicit.substep(&mut self.dynamics, &self.params, &mut self.state, h),
+                },
             }
             self.state.time = start_time + h * (k + 1) as f64;
             let now = self.state.time;

@@ -124,6 +124,12 @@ impl SkinVolume {
         (volume_and_gradient(p).1, 1.0 / self.rest_volume[t].abs())
     }
 
+    /// `|∇V|²` of tetrahedron `tet` at the model's rest positions, m⁴.
+    pub fn rest_gradient_norm2(&self, model: &Model, tet: &[u32; 4]) -> f64 {
+        let (_, grad) = volume_and_gradient(tet.map(|i| model.nodes.position[i as usize]));
+        grad.iter().map(|g| dot(*g, *g)).sum()
+    }
+
     /// Energy of the volume term at positions `x` (m) for stiffness `k` (Pa), J.
     pub fn energy<T: Real>(&self, k: f64, x: &Vec3s<T>) -> f64 {
         self.tets
