@@ -18,14 +18,17 @@ pub(super) struct RawSolver {
     cg_max_iterations: Option<u32>,
     rayleigh_alpha: Option<f64>,
     rayleigh_beta: Option<f64>,
+    factored_iterations: Option<u32>,
+    factored_preconditioner: Option<bool>,
 }
 
 /// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`.
 pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<IntegrationParameters, FieldError> {
     let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
     if let Some(name) = raw.integrator {
-        solver.integrator = IntegratorKind::parse(&name)
-            .ok_or_else(|| FieldError::new("solver.integrator", "symplectic_euler, rk4 or implicit_euler"))?;
+        solver.integrator = IntegratorKind::parse(&name).ok_or_else(|| {
+            FieldError::new("solver.integrator", "symplectic_euler, rk4, implicit_euler or implicit_factored")
+        })?;
     }
     match raw.substeps {
         None => {}
@@ -56,6 +59,15 @@ pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<Integrat
     }
     if let Some(m) = raw.max_substeps {
         solver.max_substeps = m.max(1);
+    }
+    if let Some(n) = raw.factored_iterations {
+        if !(1..=64).contains(&n) {
+            return Err(FieldError::new("solver.factored_iterations", "between 1 and 64"));
+        }
+        solver.factored_iterations = n;
+    }
+    if let Some(on) = raw.factored_preconditioner {
+        solver.factored_preconditioner = on;
     }
     if let Some(m) = raw.cg_max_iterations {
         solver.cg_max_iterations = m.max(1);
@@ -93,6 +105,7 @@ mod tests {
             ("simd = \"sse9\"\n", "solver.simd"),
             ("stability_safety = -0.5\n", "solver.stability_safety"),
             ("cg_tolerance = nan\n", "solver.cg_tolerance"),
+            ("factored_iterations = 0\n", "solver.factored_iterations"),
             ("rayleigh_beta = inf\n", "solver.rayleigh_beta"),
         ];
         for (body, field) in cases {
