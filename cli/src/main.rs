@@ -1,5 +1,6 @@
 //! `lamina`: the command line of the physics core, one module per subcommand.
 
+mod bench_capacity;
 mod bench_effects;
 mod bench_yardstick;
 mod demo;
@@ -15,7 +16,7 @@ mod study;
 mod yardstick_cmd;
 
 use clap::{Parser, Subcommand};
-use lamina_core::solver::SimdLevel;
+use lamina_core::solver::{IntegratorKind, SimdLevel};
 use lamina_core::yardstick::LatticeSize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -196,6 +197,34 @@ enum BenchCommand {
         #[arg(long, default_value_t = 0.2)]
         batch_seconds: f64,
     },
+    /// Compute per 1 kHz tick against model size: the default limb at several grids and
+    /// other scenes, every solver on 1 and 2 threads side by side; a table, CSV and log-log PNG.
+    Capacity {
+        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells).
+        #[arg(long, default_value = "24x6,39x10,48x12,96x24,160x40")]
+        grids: String,
+        /// Comma-separated scene files measured as well (their own model and effects).
+        #[arg(long, default_value = "config/scenes/thigh.toml")]
+        scenes: String,
+        /// Comma-separated solvers.
+        #[arg(long, default_value = "symplectic_euler,rk4,implicit_euler,implicit_factored")]
+        solvers: String,
+        /// Comma-separated thread counts.
+        #[arg(long, default_value = "1,2")]
+        threads: String,
+        /// Timed ticks per configuration (fewer when --max-seconds runs out first).
+        #[arg(long, default_value_t = 2000)]
+        ticks: usize,
+        /// Wall time allowed per configuration, s.
+        #[arg(long, default_value_t = 3.0)]
+        max_seconds: f64,
+        /// SCHED_FIFO priority of the measuring thread and its workers (0 leaves it).
+        #[arg(long, default_value_t = 50)]
+        fifo_priority: i32,
+        /// Directory for capacity.csv and capacity.png.
+        #[arg(long, default_value = "capacity")]
+        out: PathBuf,
+    },
     /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
     Yardstick {
         /// Comma-separated: small, medium, large, or NXxNYxNZ.
@@ -264,6 +293,27 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = run::load_scene(&scene)?;
             bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
+        }
+        Command::Bench {
+            what: BenchCommand::Capacity { grids, scenes, solvers, threads, ticks, max_seconds, fifo_priority, out },
+        } => {
+            let opts = bench_capacity::CapacityOptions {
+                grids: parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?,
+                scenes: scenes.split(',').filter(|p| !p.trim().is_empty()).map(|p| PathBuf::from(p.trim())).collect(),
+                integrators: parse_list(&solvers, "solver", IntegratorKind::parse)?,
+                threads: parse_list(&threads, "thread count", |p| {
+                    p.parse().ok().filter(|n: &usize| (1..=256).contains(n))
+                })?,
+                ticks: if ticks >= 5 { ticks } else { return Err(format!("--ticks {ticks}: at least 5")) },
+                max_seconds: if max_seconds.is_finite() && (0.1..=3600.0).contains(&max_seconds) {
+                    max_seconds
+                } else {
+                    return Err(format!("--max-seconds {max_seconds}: between 0.1 and 3600"));
+                },
+                out,
+                fifo_priority,
+            };
+            bench_capacity::bench(&opts)
         }
         Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv } => {
             let prefix = (!no_publish).then_some(prefix);
