@@ -181,18 +181,20 @@ impl<T: Real> ImplicitFactored<T> {
         let gravity = dynamics.effects.gravity.map(|g| g.map(T::from_f64)).unwrap_or([T::ZERO; 3]);
         let alpha = T::from_f64(dynamics.effects.viscous_damping.unwrap_or(0.0));
         let external = dynamics.has_external();
-        for i in 0..state.x.len() {
-            let (m, fr) = (dynamics.mass[i], dynamics.free[i]);
-            let v = state.v.get(i);
-            let e = if external { dynamics.external.get(i) } else { [T::ZERO; 3] };
-            let mut f = [T::ZERO; 3];
-            for w in &self.windows {
-                let wf = w.get(i);
-                for c in 0..3 {
-                    f[c] += wf[c];
+        let (mass, free, v) = (&dynamics.mass, &dynamics.free, state.v.slices());
+        let e = dynamics.external.slices();
+        for (c, r) in self.r.slices_mut().into_iter().enumerate() {
+            sum_windows(r, &self.windows, c);
+            let (g, vc, ec) = (gravity[c], v[c], e[c]);
+            if external {
+                for i in 0..r.len() {
+                    r[i] = free[i] * (r[i] + ec[i] + mass[i] * (g - alpha * vc[i]));
+                }
+            } else {
+                for i in 0..r.len() {
+                    r[i] = free[i] * (r[i] + mass[i] * (g - alpha * vc[i]));
                 }
             }
-            self.r.set(i, [0, 1, 2].map(|c| fr * (f[c] + e[c] + m * gravity[c] - alpha * m * v[c])));
         }
         if let Some(k) = dynamics.effects.skin_volume {
             for (t, out) in self.tet_grad.iter_mut().enumerate() {
@@ -227,14 +229,16 @@ impl<T: Real> ImplicitFactored<T> {
         }
         self.last_residual = if fnorm > 0.0 { dot(&self.r, &self.r).sqrt() / fnorm } else { 0.0 };
         let inv_h = T::from_f64(1.0 / self.h);
-        for i in 0..state.x.len() {
-            if dynamics.free[i] == T::ZERO {
-                continue;
+        let free = &dynamics.free;
+        let (xs, vs) = (state.x.slices_mut(), state.v.slices_mut());
+        for (((x, v), d), x0) in xs.into_iter().zip(vs).zip(self.dx.slices()).zip(self.x0.slices()) {
+            // Held nodes have Δx = 0 (their residual and operator rows are zeroed) and keep
+            // the velocity the bone motion gave them.
+            for i in 0..x.len() {
+                let x1 = x[i] + d[i];
+                x[i] = x1;
+                v[i] = free[i] * ((x1 - x0[i]) * inv_h) + (T::ONE - free[i]) * v[i];
             }
-            let (x, d, x0) = (state.x.get(i), self.dx.get(i), self.x0.get(i));
-            let x1 = [x[0] + d[0], x[1] + d[1], x[2] + d[2]];
-            state.x.set(i, x1);
-            state.v.set(i, [0, 1, 2].map(|c| (x1[c] - x0[c]) * inv_h));
         }
         dynamics.counters.implicit += start.elapsed();
         dynamics.counters.cg_iterations += self.iterations as u64;
@@ -271,16 +275,11 @@ impl<T: Real> ImplicitFactored<T> {
             }
         });
         let ap = &mut self.ap;
-        for i in 0..p.len() {
-            let pv = p.get(i);
-            let mut y = [0, 1, 2].map(|c| self.mass_term[i] * pv[c]);
-            for w in &self.windows {
-                let wv = w.get(i);
-                for c in 0..3 {
-                    y[c] += wv[c];
-                }
+        for (c, y) in ap.slices_mut().into_iter().enumerate() {
+            sum_windows(y, &self.windows, c);
+            for ((y, &m), &pv) in y.iter_mut().zip(&self.mass_term).zip(p.slices()[c]) {
+                *y += m * pv;
             }
-            ap.set(i, y);
         }
         let h = self.h;
         for hd in &dynamics.effects.handles {
@@ -318,10 +317,10 @@ impl<T: Real> ImplicitFactored<T> {
                 }
             }
         }
-        for i in 0..ap.len() {
-            let f = dynamics.free[i];
-            let y = ap.get(i);
-            ap.set(i, [y[0] * f, y[1] * f, y[2] * f]);
+        for y in ap.slices_mut() {
+            for (y, &f) in y.iter_mut().zip(&dynamics.free) {
+                *y *= f;
+            }
         }
     }
 }
@@ -556,8 +555,31 @@ fn apply_run<T: Real, B: Block<T>>(run: &Run, tangent: &Tangent<T>, p: &Vec3s<T>
 
 /// `a · b` over the three components, in f64.
 fn dot<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>) -> f64 {
-    let (a, b) = (a.slices(), b.slices());
-    (0..3).map(|c| a[c].iter().zip(b[c].iter()).map(|(x, y)| x.to_f64() * y.to_f64()).sum::<f64>()).sum()
+    // Eight independent partial sums, so the loop vectorises; summed in f64.
+    let mut lanes = [0.0f64; 8];
+    for (ac, bc) in a.slices().into_iter().zip(b.slices()) {
+        let (ca, cb) = (ac.chunks_exact(8), bc.chunks_exact(8));
+        let (ra, rb) = (ca.remainder(), cb.remainder());
+        for (x, y) in ca.zip(cb) {
+            for l in 0..8 {
+                lanes[l] += x[l].to_f64() * y[l].to_f64();
+            }
+        }
+        for (x, y) in ra.iter().zip(rb) {
+            lanes[0] += x.to_f64() * y.to_f64();
+        }
+    }
+    lanes.iter().sum()
+}
+
+/// `out = Σ_w windows[w]` for component `c`.
+fn sum_windows<T: Real>(out: &mut [T], windows: &[Vec3s<T>], c: usize) {
+    out.copy_from_slice(windows[0].slices()[c]);
+    for w in &windows[1..] {
+        for (o, &x) in out.iter_mut().zip(w.slices()[c]) {
+            *o += x;
+        }
+    }
 }
 
 /// `y += a x`.
