@@ -33,6 +33,8 @@ pub struct CapacityOptions {
     pub fifo_priority: i32,
 }
 
+/// Name of the generated limbs in the table.
+const LIMB: &str = "limb";
 /// Budget of one 1 kHz tick, µs.
 const BUDGET_US: f64 = 1000.0;
 /// Tool depth under the skin's rest surface while timing, m.
@@ -88,7 +90,7 @@ fn build_models(opts: &CapacityOptions) -> Vec<(Scene, Result<Model, String>)> {
             _ => 0.24,
         };
         scene.model = ModelSource::CylinderLimb { columns, rows, length };
-        scene.name = format!("limb {columns}x{rows}");
+        scene.name = format!("{LIMB} {columns}x{rows}");
         let model = scene.build_model().map_err(|e| e.to_string());
         out.push((scene, model));
     }
@@ -328,8 +330,8 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Nodes against p50 µs per tick, one line per solver and thread count, with the budget
-/// and half-budget lines.
+/// Nodes against p50 µs per tick of the cylinder limbs (the other scenes are in the table),
+/// one line per solver and thread count, with the budget and half-budget lines.
 fn write_plot(path: &Path, rows: &[Row], opts: &CapacityOptions) -> Result<(), String> {
     let mut series = Vec::new();
     for &integrator in &opts.integrators {
@@ -337,6 +339,7 @@ fn write_plot(path: &Path, rows: &[Row], opts: &CapacityOptions) -> Result<(), S
             let mut points: Vec<(f64, f64)> = rows
                 .iter()
                 .filter(|r| r.integrator == integrator && r.threads == threads && r.error.is_none())
+                .filter(|r| r.model.starts_with(LIMB))
                 .map(|r| (r.nodes as f64, r.quantile_us(0.5)))
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));

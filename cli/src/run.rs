@@ -76,11 +76,7 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         sim.params().threads,
         sim.params().simd
     );
-    if sim.params().integrator == lamina_core::solver::IntegratorKind::SymplecticEuler {
-        println!(
-            "integrator: symplectic Euler, the accuracy study's winner for a 1 kHz budget (docs/accuracy-and-stability.md)"
-        );
-    }
+    println!("{}", integrator_reason(&sim, scene.rate_hz));
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 
     let cpu = scene.realtime.cpu.or_else(|| available_cpus().last().copied());
@@ -230,4 +226,27 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         println!("report written to {}", path.display());
     }
     Ok(())
+}
+
+/// Which integrator runs and why, from the model's own critical step.
+fn integrator_reason<T: Real>(sim: &Simulation<T>, rate_hz: u32) -> String {
+    use lamina_core::solver::IntegratorKind;
+    let dt = 1.0 / f64::from(rate_hz);
+    let explicit_steps = (dt
+        / (sim.stability().critical_step(IntegratorKind::SymplecticEuler) * sim.params().stability_safety))
+        .ceil()
+        .max(1.0);
+    match sim.params().integrator {
+        IntegratorKind::ImplicitFactored => format!(
+            "integrator: implicit_factored, one implicit step per tick where symplectic Euler needs {explicit_steps:.0} \
+             sub-steps below its critical step; the cheapest per tick at the explicit press force \
+             (docs/solvers.md, lamina bench capacity)"
+        ),
+        IntegratorKind::SymplecticEuler => format!(
+            "integrator: symplectic Euler, {explicit_steps:.0} sub-step(s) per tick; the most accurate per unit of \
+             compute when sub-steps are few (docs/accuracy-and-stability.md); implicit_factored takes one step \
+             per tick (docs/solvers.md)"
+        ),
+        other => format!("integrator: {other} as the scene asks (docs/solvers.md compares the choices)"),
+    }
 }
