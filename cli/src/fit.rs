@@ -1,5 +1,5 @@
-//! `lamina fit`: fits each layer's springs to its tissue targets (`config/materials/`), per
-//! grid size of the cylindrical limb, prints the targets against what the fitted layers
+//! `lamina fit`: fits each layer's springs to its tissue targets (`config/materials/`, or the
+//! copy compiled into the binary; see [`load_targets`]), per grid size of the cylindrical limb, prints the targets against what the fitted layers
 //! achieve, writes every annealing iteration's curve (CSV) and a plot like the paper's
 //! Fig. 10 (PNG), and the fitted 39 × 10 (or chosen) limb as an XML model with provenance.
 
@@ -14,16 +14,44 @@ use std::time::Instant;
 
 /// Options of `lamina fit`.
 pub struct FitOptions {
-    /// Folder holding `skin.toml`, `fat.toml`, `muscle.toml`.
-    pub materials: PathBuf,
+    /// Folder holding `skin.toml`, `fat.toml`, `muscle.toml`; `None`: the search order of
+    /// [`load_targets`].
+    pub materials: Option<PathBuf>,
     /// Grid sizes to fit for.
     pub grids: Vec<GridSize>,
     /// Grid whose fitted limb is written as XML.
     pub model_grid: GridSize,
     /// Annealing seed.
     pub seed: u64,
+    /// Most objective evaluations per layer's annealing (default 1500).
+    pub max_evaluations: u32,
     /// Output folder.
     pub out: PathBuf,
+}
+
+/// The shipped tissue targets (`config/materials/`), compiled in.
+const BUILTIN_TARGETS: [(&str, &str); 3] = [
+    ("skin", include_str!("../../config/materials/skin.toml")),
+    ("fat", include_str!("../../config/materials/fat.toml")),
+    ("muscle", include_str!("../../config/materials/muscle.toml")),
+];
+
+/// The skin, fat and muscle targets, and where they came from. Search order: the folder given
+/// (`--materials DIR`), else `config/materials/` under the working directory when it exists,
+/// else the shipped targets compiled into the binary (so `lamina fit` works from any
+/// directory).
+pub fn load_targets(folder: Option<&Path>) -> Result<([TissueTargets; 3], String), String> {
+    let local = Path::new("config/materials");
+    let folder = folder.or_else(|| local.is_dir().then_some(local));
+    let load = |(name, text): (&str, &str)| match folder {
+        Some(dir) => TissueTargets::load(&dir.join(format!("{name}.toml"))).map_err(|e| e.to_string()),
+        None => TissueTargets::parse(text, Path::new(&format!("<built-in config/materials/{name}.toml>")))
+            .map_err(|e| e.to_string()),
+    };
+    let [skin, fat, muscle] = BUILTIN_TARGETS.map(load);
+    let source =
+        folder.map_or_else(|| "built in (config/materials/ of this release)".into(), |d| d.display().to_string());
+    Ok(([skin?, fat?, muscle?], source))
 }
 
 /// The layers' geometry in a cylindrical limb of grid `grid`: spacing = the geometric mean
@@ -154,13 +182,12 @@ fn plot_fit(fit: &LayerFit, target: &TissueTargets, path: &Path) -> Result<(), S
 
 /// Runs `lamina fit`.
 pub fn fit(opts: &FitOptions) -> Result<(), String> {
-    let targets = ["skin", "fat", "muscle"]
-        .map(|name| TissueTargets::load(&opts.materials.join(format!("{name}.toml"))).map_err(|e| e.to_string()));
-    let [skin, fat, muscle] = targets;
-    let targets = [skin?, fat?, muscle?];
+    let (targets, source) = load_targets(opts.materials.as_deref())?;
+    println!("tissue targets: {source}");
     std::fs::create_dir_all(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
     let mut settings = FitSettings::default();
     settings.anneal.seed = opts.seed;
+    settings.anneal.max_evaluations = opts.max_evaluations as usize;
     let bars = MultiProgress::new();
     if !std::io::stderr().is_terminal() {
         bars.set_draw_target(ProgressDrawTarget::hidden());

@@ -117,9 +117,10 @@ enum Command {
     /// Fits each layer's springs to measured tissue (virtual tensile test, bilinear
     /// regression, simulated annealing), per grid size of the cylindrical limb.
     Fit {
-        /// Folder with skin.toml, fat.toml and muscle.toml.
-        #[arg(long, default_value = "config/materials")]
-        materials: PathBuf,
+        /// Folder with skin.toml, fat.toml and muscle.toml. Default: ./config/materials when
+        /// it exists, else the shipped targets built into this binary.
+        #[arg(long)]
+        materials: Option<PathBuf>,
         /// Grid sizes of the limb to fit for, comma-separated WxH.
         #[arg(long, default_value = "39x10")]
         grid_sizes: String,
@@ -129,6 +130,9 @@ enum Command {
         /// Seed of the annealing's random stream.
         #[arg(long, default_value_t = 2008)]
         seed: u64,
+        /// Most objective evaluations per layer's annealing (each one a virtual tensile test).
+        #[arg(long, default_value_t = 1500, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+        max_evaluations: u32,
         /// Output folder.
         #[arg(long, default_value = "out/fit")]
         out: PathBuf,
@@ -266,10 +270,10 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("{report}");
             Ok(())
         }
-        Command::Fit { materials, grid_sizes, model_grid, seed, out } => {
+        Command::Fit { materials, grid_sizes, model_grid, seed, max_evaluations, out } => {
             let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
             let model_grid = generate::parse_grid(&model_grid)?;
-            fit::fit(&fit::FitOptions { materials, grids, model_grid, seed, out })
+            fit::fit(&fit::FitOptions { materials, grids, model_grid, seed, max_evaluations, out })
         }
         Command::Demo { scene, seconds, out } => demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {

@@ -26,7 +26,7 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
     let mut rows: Vec<YardstickRow> = Vec::new();
     let machine = machine::describe();
     if !opts.json {
-        println!("yardstick scene (shared/bench/lattice-scene.md), symplectic Euler dt = 1e-4 s");
+        println!("yardstick scene (docs/yardstick-scene.md), symplectic Euler dt = 1e-4 s");
         println!("machine: {machine}");
         println!(
             "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10} {:>9} {:>10}",

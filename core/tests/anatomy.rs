@@ -1,8 +1,8 @@
 //! The generator on segmented surfaces: synthetic nested cylinders written as STL must give
 //! the built-in analytic cylinder limb; the real BodyParts3D thigh must give a valid layered
 //! model whose nodes lie inside the skin, in skin → fat → muscle → bone order along every
-//! ray, with a missing file named in the error. The real-data test is skipped, with a
-//! message, when `shared/data/bodyparts3d-leg` is not there.
+//! ray, with a missing file named in the error. The real data is the repository's
+//! `data/bodyparts3d-leg/`.
 
 use lamina_core::generator::{AnatomySpec, CylinderLimb, GridSize, Materials, generate, generate_anatomy};
 use lamina_mesh::synthetic::cylinder;
@@ -76,11 +76,7 @@ fn inside(caster: &RayCaster, p: [f64; 3]) -> bool {
 
 #[test]
 fn anatomy_real_thigh_is_layered_and_inside_the_skin_works() {
-    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/bodyparts3d-leg");
-    if !data.is_dir() {
-        eprintln!("skipped: {} not found", data.display());
-        return;
-    }
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/bodyparts3d-leg");
     let grid = GridSize::new(24, 6);
     let spec = AnatomySpec {
         skin: data.join("skin_outer.stl"),

@@ -1,5 +1,5 @@
-//! Every scene shipped in `config/scenes/` loads, builds its model (the thigh reads
-//! `../shared/data/bodyparts3d-leg/`), and steps a tenth of a second at its own rate with a
+//! Every scene shipped in `config/scenes/` loads, builds its model (the thigh reads the
+//! repository's `data/bodyparts3d-leg/`), and steps a tenth of a second at its own rate with a
 //! finite state: a scene file that drifts from the parser or from the data it names fails here,
 //! not in front of a user.
 

@@ -1,25 +1,19 @@
-//! The real BodyParts3D right-leg surfaces (see `shared/data/bodyparts3d-leg/README.md`).
-//! Skipped, with a message, when the data directory is not there.
+//! The real BodyParts3D right-leg surfaces of the repository's `data/bodyparts3d-leg/` (see
+//! its README.md for the source and licence).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use lamina_mesh::{CentrelineOptions, LoadOptions, Units, centreline, cross_section, inspect, load};
 
-fn data_dir() -> Option<PathBuf> {
-    let workspace = PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent()?.to_path_buf();
-    let dir = workspace.join("../shared/data/bodyparts3d-leg");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: {} not found", dir.display());
-        None
-    }
+/// The repository's `data/bodyparts3d-leg/`.
+fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/bodyparts3d-leg")
 }
 
 #[test]
 fn leg_fat_muscle_boundary_load_works() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     let path = dir.join("fat_muscle_boundary.stl");
     let t0 = Instant::now();
     let loaded = load(&path, &LoadOptions::default()).unwrap();
@@ -37,7 +31,7 @@ fn leg_fat_muscle_boundary_load_works() {
 
 #[test]
 fn leg_inspect_all_files_works() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     for name in [
         "fat_muscle_boundary.stl",
         "skin_outer.stl",
@@ -54,7 +48,7 @@ fn leg_inspect_all_files_works() {
 
 #[test]
 fn leg_skin_centreline_thigh_works() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     let skin = load(dir.join("skin_outer.stl"), &LoadOptions::default()).unwrap().mesh;
     let opts = CentrelineOptions { stations: 34, range: Some((0.450, 0.780)), ..Default::default() };
     let line = centreline(&skin, &opts).unwrap();
@@ -93,7 +87,7 @@ fn leg_skin_centreline_thigh_works() {
 
 #[test]
 fn leg_all_files_load_closed_works() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     println!("{:<26}{:>10}{:>10}{:>10}{:>9}{:>10}", "file", "triangles", "welded", "flipped", "load ms", "volume L");
     for name in [
         "skin_outer.stl",

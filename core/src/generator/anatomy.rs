@@ -1,5 +1,5 @@
 //! Real anatomy: a limb region generated from segmented tissue surfaces (STL/OBJ through
-//! `lamina-mesh`), such as the BodyParts3D thigh of `shared/data/bodyparts3d-leg/`.
+//! `lamina-mesh`), such as the BodyParts3D thigh of the repository's `data/bodyparts3d-leg/`.
 //!
 //! # How it works
 //! 1. Load the outer skin, the fat/muscle boundary and the bone: vertices welded, winding

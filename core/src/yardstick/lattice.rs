@@ -159,7 +159,7 @@ pub fn lattice_model(size: LatticeSize) -> Model {
             model.springs.push(n as u32, m as u32, rest, SpringLaw::Linear { stiffness }, SPRING_DAMPING, layer);
         }
     }
-    model.provenance.push(("scene".into(), "shared/bench/lattice-scene.md".into()));
+    model.provenance.push(("scene".into(), "docs/yardstick-scene.md".into()));
     model
 }
 

@@ -1,4 +1,4 @@
-//! The yardstick scene (`shared/bench/lattice-scene.md`): a layered block of
+//! The yardstick scene (`docs/yardstick-scene.md`): a layered block of
 //! `NX × NY × NZ` nodes that other simulators were timed on. Built exactly as specified,
 //! spring order included, and stepped either by Lamina's solver or by the plain scalar loop
 //! of the specification, side by side.
