@@ -86,8 +86,8 @@ enum Command {
         /// The mesh file.
         file: PathBuf,
     },
-    /// The main job as processes: the core, haptics with a scripted device, and the viewer
-    /// (headless without a display).
+    /// Run the whole simulator on a scene: the core, haptics with a scripted device, and the
+    /// viewer (headless without a display), as separate processes.
     Demo {
         /// Scene; the built-in default when omitted.
         #[arg(long)]

@@ -130,12 +130,14 @@ fn coordinates_beyond_f32_range_are_refused_works() {
 
 #[test]
 fn substeps_clamped_are_reported_works() {
-    // The default limb needs more than one sub-step at 1 kHz; max_substeps = 1 clamps it.
+    // Symplectic Euler needs more than one sub-step per 1 kHz frame on the default limb
+    // (its thin skin's critical step); max_substeps = 1 clamps it.
     let (scene, model) = default_scene();
-    let sim = build::<f32>(&scene, &model, scene.solver.clone()).unwrap();
+    let explicit = IntegrationParameters { integrator: IntegratorKind::SymplecticEuler, ..scene.solver.clone() };
+    let sim = build::<f32>(&scene, &model, explicit.clone()).unwrap();
     let needed = sim.substeps() as u64;
     assert!(needed > 1 && sim.substeps_clamped().is_none());
-    let params = IntegrationParameters { max_substeps: 1, ..scene.solver.clone() };
+    let params = IntegrationParameters { max_substeps: 1, ..explicit };
     let sim = build::<f32>(&scene, &model, params).unwrap();
     assert_eq!((sim.substeps(), sim.substeps_clamped()), (1, Some(needed)));
 }

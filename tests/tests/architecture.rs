@@ -116,3 +116,89 @@ fn haptics_knows_nothing_of_the_physics_works() {
     let found = forbidden_in(&graph, "lamina-haptics", &["lamina-core", "wgpu"]);
     assert!(found.is_empty(), "lamina-haptics depends (normally, maybe transitively) on {found:?}");
 }
+
+/// The leaf modules (files other than `lib.rs`, `main.rs` and `mod.rs`) of one crate's
+/// `src/`, by module path (`solver::lane_block`), with their source text.
+fn leaf_modules(src: &Path) -> BTreeMap<String, String> {
+    fn walk(dir: &Path, prefix: &str, out: &mut BTreeMap<String, String>) {
+        let mut entries: Vec<_> = std::fs::read_dir(dir).expect("source folder").map(|e| e.unwrap().path()).collect();
+        entries.sort();
+        for path in entries {
+            let name = path.file_stem().unwrap().to_string_lossy().to_string();
+            if path.is_dir() {
+                if name != "bin" {
+                    walk(&path, &format!("{prefix}{name}::"), out);
+                }
+            } else if path.extension().is_some_and(|e| e == "rs") && !["lib", "main", "mod"].contains(&name.as_str()) {
+                out.insert(format!("{prefix}{name}"), std::fs::read_to_string(&path).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(src, "", &mut out);
+    out
+}
+
+/// Leaf modules that `text` (the module at `path`) names through `crate::` or `super::` in
+/// code (comments, doc links included, do not count).
+fn referenced_modules(path: &str, text: &str, leaves: &BTreeMap<String, String>) -> BTreeSet<String> {
+    let code: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+    let text = code.as_str();
+    let parent: Vec<&str> = path.split("::").collect();
+    let parent = &parent[..parent.len() - 1];
+    let mut found = BTreeSet::new();
+    for (anchor, base) in [("crate::", Vec::new()), ("super::", parent.to_vec())] {
+        for (at, _) in text.match_indices(anchor) {
+            let rest = &text[at + anchor.len()..];
+            let tail: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':').collect();
+            let mut segments: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+            segments.extend(tail.split("::").filter(|s| !s.is_empty()).map(str::to_string));
+            // The longest prefix that is a leaf module.
+            for len in (1..=segments.len()).rev() {
+                let candidate = segments[..len].join("::");
+                if leaves.contains_key(&candidate) {
+                    if candidate != path {
+                        found.insert(candidate);
+                    }
+                    break;
+                }
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn no_two_modules_import_each_other_works() {
+    let root = root();
+    let mut circles = Vec::new();
+    for krate in ["core", "rt", "mesh", "bridge", "cli", "haptics", "viewer"] {
+        let leaves = leaf_modules(&root.join(krate).join("src"));
+        assert!(!leaves.is_empty(), "{krate}/src has modules");
+        let refs: BTreeMap<&String, BTreeSet<String>> =
+            leaves.iter().map(|(path, text)| (path, referenced_modules(path, text, &leaves))).collect();
+        for (a, targets) in &refs {
+            for b in targets {
+                if a.as_str() < b.as_str() && refs[b].contains(a.as_str()) {
+                    circles.push(format!("{krate}: {a} <-> {b}"));
+                }
+            }
+        }
+    }
+    assert!(circles.is_empty(), "modules that import each other: {circles:#?}");
+}
+
+#[test]
+fn module_reference_reader_finds_imports_works() {
+    // The reader above, on a hand-made pair: `a` names `b` through `crate::`, `b` names `a`
+    // through `super::`, `c` names `a` in a doc comment only.
+    let leaves: BTreeMap<String, String> = [
+        ("x::a".to_string(), "use crate::x::b::Thing;".to_string()),
+        ("x::b".to_string(), "fn f() { super::a::g() }".to_string()),
+        ("x::c".to_string(), "/// See [`crate::x::a`].\nuse std::fmt;".to_string()),
+    ]
+    .into();
+    assert_eq!(referenced_modules("x::a", &leaves["x::a"], &leaves), BTreeSet::from(["x::b".to_string()]));
+    assert_eq!(referenced_modules("x::b", &leaves["x::b"], &leaves), BTreeSet::from(["x::a".to_string()]));
+    assert!(referenced_modules("x::c", &leaves["x::c"], &leaves).is_empty());
+}

@@ -277,19 +277,14 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
         "last feedback at the device -> last non-zero force {last_force_ms:.3} ms, zero force {delay_ms:.3} ms \
          (device-loop gap {gap_ms:.3} ms)"
     );
-    // The renderer's rule, end to end: no force is commanded 4.5 ms or more after the last
-    // feedback (one device period, 0.25 ms, allowed between the render's clock reading and
-    // the write's time stamp).
+    // The renderer's rule, end to end, on the device loop's own time stamps: no force is
+    // commanded 4.5 ms or more after the last feedback (one device period, 0.25 ms, allowed
+    // between the render's clock reading and the write's time stamp). A device loop stalled
+    // across that moment writes its first command after the stall, and that one is zero too.
     assert!(last_force_ms < 4.75, "a force was still commanded {last_force_ms} ms after the last feedback");
-    // The zero command follows within 5 ms: the next 4 kHz tick after 4.5 ms. Only a device
-    // loop that was itself stalled across that moment (a missed deadline, which its monitor
-    // counts; in one CI run on a shared VM it wrote zero at 5.77 ms) writes it later, and then
-    // the device holds the last command, faded by the staleness gain, until the loop runs.
-    let stalled = gap_ms > 2.0 * 0.25;
-    assert!(delay_ms <= 5.0 || stalled, "force reached zero {delay_ms} ms after the last feedback");
     assert!(
-        quiet_rows.iter().filter(|r| r.time_ns >= last_feedback_ns + 5_000_000).all(|r| r.force == [0.0; 3]),
-        "and stays zero while the core is quiet"
+        quiet_rows.iter().filter(|r| r.time_ns >= last_feedback_ns + 4_750_000).all(|r| r.force == [0.0; 3]),
+        "zero from 4.75 ms after the last feedback and while the core is quiet"
     );
     let max_after = rows[resumed..].iter().take(4000).map(|r| r.force[2]).fold(0.0, f64::max);
     assert!(max_after > 0.03, "force comes back with the core");

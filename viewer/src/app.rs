@@ -24,11 +24,12 @@ use std::time::Instant;
 
 use crate::camera::{Camera, bounds, default_view};
 use crate::cut::CutPlane;
-use crate::mesh_build::{MeshBuilder, MeshOptions, SceneMesh, SpringDisplay};
+use crate::mesh_build::{MeshBuilder, MeshOptions, SpringDisplay};
 use crate::overlay::{FlatVertex, Overlay, rgba};
 use crate::render::{
     DrawInput, FrameReadError, GpuContext, OFFSCREEN_FORMAT, Offscreen, Renderer, RendererCreateError, wait_idle,
 };
+use crate::scene_mesh::SceneMesh;
 use crate::timing::{FrameTiming, elapsed_ns};
 use crate::view_model::{Frame, ViewModel};
 

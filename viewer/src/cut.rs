@@ -15,7 +15,7 @@ use glam::Vec3;
 
 use crate::bezier::{CellLayout, Patch};
 use crate::material::Material;
-use crate::mesh_build::{LitVertex, SceneMesh};
+use crate::scene_mesh::{LitVertex, SceneMesh};
 use crate::view_model::Tissue;
 
 /// A cutting plane: points with `normal · p > offset` are removed.

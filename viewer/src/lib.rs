@@ -22,6 +22,7 @@ pub mod mesh_build;
 pub mod overlay;
 pub mod png_io;
 pub mod render;
+pub mod scene_mesh;
 pub mod source;
 pub mod synthetic;
 pub mod timing;

@@ -17,8 +17,8 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::camera::Camera;
 use crate::cut::CutPlane;
-use crate::mesh_build::{LineVertex, LitVertex, SceneMesh};
 use crate::overlay::FlatVertex;
+use crate::scene_mesh::{LineVertex, LitVertex, SceneMesh};
 
 /// Why the GPU could not be set up.
 #[derive(Debug, Clone, PartialEq, Eq)]

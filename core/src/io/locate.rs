@@ -29,7 +29,7 @@ impl Source<'_> {
     fn open(&self) -> Option<Box<dyn BufRead + '_>> {
         match self {
             Source::Text(t) => Some(Box::new(t.as_bytes())),
-            Source::File(p) => lamina_input::open_regular(p, &super::xml_read::MODEL_FILE)
+            Source::File(p) => lamina_input::open_regular(p, &super::MODEL_FILE)
                 .ok()
                 .map(|(f, _)| Box::new(BufReader::new(f)) as Box<dyn BufRead>),
         }

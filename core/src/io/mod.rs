@@ -26,7 +26,13 @@ mod xml_write;
 
 pub use error::{ModelReadError, ModelWriteError, SourceLocation, VtuWriteError};
 pub use format::{MODEL_FORMAT_VERSION, MODEL_UNITS, PPU_COMP_LEN, PPU_STRET_LEN_FACTOR};
+use lamina_input::FileLimit;
 pub use vtu::{VTK_LINE, VTK_TRIANGLE, vtu_to_string, write_vtu};
 pub use vtu_series::VtuSeriesWriter;
-pub use xml_read::{MIN_ELEMENT_BYTES, MODEL_FILE, model_from_str, read_model};
+pub use xml_read::{MIN_ELEMENT_BYTES, model_from_str, read_model};
 pub use xml_write::{ModelWriteOptions, model_to_string, model_to_string_with, write_model, write_model_with};
+
+/// Model files: at most 4 GiB, parsed in at most 6 bytes of memory per byte of file (the
+/// reader reserves list storage for one element per [`MIN_ELEMENT_BYTES`] of file, and the
+/// largest element, a spring, takes under 96 bytes).
+pub const MODEL_FILE: FileLimit = FileLimit::new("model file", 4 << 30).memory_per_byte(6);

@@ -14,7 +14,7 @@ use super::xml_attrs::{
 };
 use crate::law::{Bilinear, PpuBilinearPair, PpuLinearSpring, SpringLaw};
 use crate::model::{Layer, Model, ModelValidateError, NodeKind, Surface, Tissue};
-use lamina_input::{FileLimit, FileReadError};
+use lamina_input::FileReadError;
 use quick_xml::errors::{Error as XmlError, SyntaxError};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::name::QName;
@@ -22,26 +22,21 @@ use quick_xml::reader::Reader;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
-/// Model files: at most 4 GiB, parsed in at most 6 bytes of memory per byte of file (the
-/// reader reserves list storage for one element per [`MIN_ELEMENT_BYTES`] of file, and the
-/// largest element, a spring, takes under 96 bytes).
-pub const MODEL_FILE: FileLimit = FileLimit::new("model file", 4 << 30).memory_per_byte(6);
-
 /// Reads the model file at `path`.
 ///
 /// # Errors
 /// [`ModelReadError::Io`] if the file cannot be read, [`ModelReadError::Refused`] if it is
-/// not a regular file, is larger than [`MODEL_FILE`]'s cap or needs more memory than is
+/// not a regular file, is larger than [`MODEL_FILE`](super::MODEL_FILE)'s cap or needs more memory than is
 /// available; otherwise the first problem found, with file, line and column (the variants
 /// of [`ModelReadError`]).
 pub fn read_model(path: impl AsRef<Path>) -> Result<Model, ModelReadError> {
     let path = path.as_ref();
     let source = Source::File(path);
-    let (file, size) = lamina_input::open_regular(path, &MODEL_FILE).map_err(|e| match e {
+    let (file, size) = lamina_input::open_regular(path, &super::MODEL_FILE).map_err(|e| match e {
         FileReadError::Io { message, .. } => ModelReadError::Io { file: path.display().to_string(), message },
         refused => ModelReadError::Refused(refused),
     })?;
-    let parsed = parse(BufReader::with_capacity(1 << 20, file.take(MODEL_FILE.max_bytes)), size);
+    let parsed = parse(BufReader::with_capacity(1 << 20, file.take(super::MODEL_FILE.max_bytes)), size);
     finish(parsed, &source)
 }
 

@@ -6,10 +6,10 @@
 //! at most [`MAX_SUBSTEPS`] sub-steps, each with at most [`MAX_CG_ITERATIONS`] conjugate
 //! gradient iterations, and the guard's retries at most [`MAX_GUARD_RETRIES`] doublings.
 
+use super::build_error::SimulationBuildError;
 use super::critical_step::StabilityEstimate;
 use super::effects::Effects;
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
-use super::simulation::SimulationBuildError;
 use crate::model::{Model, ModelSize, RUN_MEMORY_FACTOR};
 use crate::real::Real;
 

@@ -229,13 +229,17 @@ impl<T: Real> ImplicitFactored<T> {
         }
         self.last_residual = if fnorm > 0.0 { dot(&self.r, &self.r).sqrt() / fnorm } else { 0.0 };
         let inv_h = T::from_f64(1.0 / self.h);
+        // A non-finite residual (a NaN or infinite force) stops the iterations at their
+        // breakdown test with Δx = 0; the step's result is made non-finite instead, so the
+        // guard (or the caller) sees the bad force rather than a silently skipped update.
+        let poison = if fnorm.is_finite() { T::ZERO } else { T::from_f64(f64::NAN) };
         let free = &dynamics.free;
         let (xs, vs) = (state.x.slices_mut(), state.v.slices_mut());
         for (((x, v), d), x0) in xs.into_iter().zip(vs).zip(self.dx.slices()).zip(self.x0.slices()) {
             // Held nodes have Δx = 0 (their residual and operator rows are zeroed) and keep
             // the velocity the bone motion gave them.
             for i in 0..x.len() {
-                let x1 = x[i] + d[i];
+                let x1 = x[i] + d[i] + free[i] * poison;
                 x[i] = x1;
                 v[i] = free[i] * ((x1 - x0[i]) * inv_h) + (T::ONE - free[i]) * v[i];
             }

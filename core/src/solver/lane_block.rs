@@ -8,51 +8,7 @@
 //! lane by lane.
 
 use crate::real::Real;
-
-/// Springs per lane block. The block, not the register, fixes the order in which forces
-/// are summed, so every instruction-set level gives the same bits. Default 8 (one AVX
-/// register of f32).
-pub const LANES: usize = 8;
-
-/// `a > b ? a : b`, the x86 `maxps` rule: `b` when either is NaN or both are zero.
-#[inline(always)]
-pub fn max<T: Real>(a: T, b: T) -> T {
-    if a > b { a } else { b }
-}
-
-/// `a < b ? a : b`, the x86 `minps` rule: `b` when either is NaN or both are zero.
-#[inline(always)]
-pub fn min<T: Real>(a: T, b: T) -> T {
-    if a < b { a } else { b }
-}
-
-/// [`LANES`] values of `T` and the kernel's arithmetic on them.
-pub trait Block<T: Real>: Copy {
-    /// `s[i..i + LANES]`; panics if out of bounds.
-    fn load(s: &[T], i: usize) -> Self;
-    /// Every lane `v`.
-    fn splat(v: T) -> Self;
-    /// Writes the lanes to `s[i..i + LANES]`; panics if out of bounds.
-    fn store(self, s: &mut [T], i: usize);
-    /// Lane-wise sum.
-    fn add(self, o: Self) -> Self;
-    /// Lane-wise difference.
-    fn sub(self, o: Self) -> Self;
-    /// Lane-wise product.
-    fn mul(self, o: Self) -> Self;
-    /// Lane-wise quotient.
-    fn div(self, o: Self) -> Self;
-    /// Lane-wise square root.
-    fn sqrt(self) -> Self;
-    /// Lane-wise [`max`].
-    fn max(self, o: Self) -> Self;
-    /// Lane-wise [`min`].
-    fn min(self, o: Self) -> Self;
-    /// `+0` in the lanes where `keep` is 0.
-    fn keep(self, keep: &[u8]) -> Self;
-    /// `yes` in the lanes where `self > 0` (ordered: false for NaN), `no` elsewhere.
-    fn select_positive(self, yes: Self, no: Self) -> Self;
-}
+pub use crate::real::{Block, LANES, max, min};
 
 /// A block as an array, computed lane by lane.
 #[derive(Clone, Copy)]
@@ -291,6 +247,50 @@ mod avx {
         }
     }
 }
+
+macro_rules! impl_real {
+    ($t:ty, $name:literal, $avx:ty) => {
+        impl Real for $t {
+            type AvxBlock = $avx;
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const NAME: &'static str = $name;
+            #[inline(always)]
+            fn from_f64(v: f64) -> Self {
+                v as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn max(self, other: Self) -> Self {
+                <$t>::max(self, other)
+            }
+            #[inline(always)]
+            fn min(self, other: Self) -> Self {
+                <$t>::min(self, other)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+impl_real!(f32, "f32", AvxF32);
+#[cfg(target_arch = "x86_64")]
+impl_real!(f64, "f64", AvxF64);
+#[cfg(not(target_arch = "x86_64"))]
+impl_real!(f32, "f32", ScalarBlock<f32>);
+#[cfg(not(target_arch = "x86_64"))]
+impl_real!(f64, "f64", ScalarBlock<f64>);
 
 #[cfg(test)]
 mod tests {

@@ -5,6 +5,7 @@
 //! precision `T`, and scratch buffers allocated once.
 
 mod build_checks;
+mod build_error;
 mod critical_step;
 mod disjoint;
 mod dynamics;

@@ -1,0 +1,120 @@
+//! Why a [`Simulation`](super::Simulation) could not be built: the model, an effect, the
+//! parameters, the precision, the memory or the stability checks refused it.
+
+use super::sparse_cholesky::FactorBuildError;
+use crate::model::ModelValidateError;
+use std::fmt;
+
+/// Why a simulation could not be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimulationBuildError {
+    /// The model is inconsistent.
+    Model(ModelValidateError),
+    /// An effect names a node that does not exist.
+    NodeOutOfRange {
+        /// Which effect.
+        effect: &'static str,
+        /// The node index named.
+        node: u32,
+    },
+    /// An effect parameter is NaN, infinite or negative where it must not be.
+    BadEffectValue {
+        /// Which effect.
+        effect: &'static str,
+    },
+    /// The step is not finite and positive, or sub-steps are zero.
+    BadStep,
+    /// A count is above its cap ([`MAX_SUBSTEPS`](super::MAX_SUBSTEPS),
+    /// [`MAX_CG_ITERATIONS`](super::MAX_CG_ITERATIONS), ...).
+    AboveCap {
+        /// The parameter, as named in scene files.
+        parameter: &'static str,
+        /// Its value.
+        value: u64,
+        /// The cap.
+        cap: u64,
+    },
+    /// A solver setting is outside its range.
+    BadParameter {
+        /// The parameter, as named in scene files.
+        parameter: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range it must be in.
+        expected: &'static str,
+    },
+    /// A node lies beyond [`max_coordinate`](super::max_coordinate) of the precision: its
+    /// squared distances would not be finite.
+    PositionOutOfRange {
+        /// The node.
+        node: u32,
+        /// Its position, m.
+        position: [f64; 3],
+        /// The largest coordinate magnitude of the precision, m.
+        limit_m: f64,
+        /// `f32` or `f64`.
+        precision: &'static str,
+    },
+    /// A mass or stiffness rounds to zero or overflows in the precision.
+    NotRepresentable {
+        /// What and its value, e.g. `node 3: mass 1e-300 kg`.
+        item: String,
+        /// `f32` or `f64`.
+        precision: &'static str,
+    },
+    /// Running the model would need more memory than is available.
+    Memory(crate::model::ModelSizeError),
+    /// The stiffest mode's frequency or damping rate is not finite (or the explicit
+    /// critical step not positive): no step can follow the model.
+    NonFiniteStability {
+        /// Highest angular frequency estimated, rad/s.
+        omega_max: f64,
+        /// Highest damping rate estimated, 1/s.
+        gamma_max: f64,
+        /// The spring with the largest stiffness over its lighter node's mass.
+        stiffest: String,
+    },
+    /// The implicit solvers' prefactored matrix could not be factored.
+    Factor(FactorBuildError),
+}
+
+impl fmt::Display for SimulationBuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Model(e) => write!(f, "invalid model: {e}"),
+            Self::NodeOutOfRange { effect, node } => write!(f, "{effect}: node {node} does not exist"),
+            Self::BadEffectValue { effect } => write!(f, "{effect}: a value is NaN, infinite or out of range"),
+            Self::BadStep => write!(f, "time step must be finite and positive, sub-steps at least 1"),
+            Self::AboveCap { parameter, value, cap } => {
+                write!(f, "{parameter} = {value} is above its cap of {cap}")
+            }
+            Self::BadParameter { parameter, value, expected } => {
+                write!(f, "{parameter} = {value:e} must be {expected}")
+            }
+            Self::PositionOutOfRange { node, position: p, limit_m, precision } => write!(
+                f,
+                "node {node} at ({:e}, {:e}, {:e}) m is beyond ±{limit_m:.1e} m, the largest coordinate whose \
+                 squared distances stay finite in {precision}",
+                p[0], p[1], p[2]
+            ),
+            Self::Memory(e) => write!(f, "{e}"),
+            Self::NotRepresentable { item, precision } => {
+                write!(f, "{item} rounds to zero or overflows in {precision}")
+            }
+            Self::NonFiniteStability { omega_max, gamma_max, stiffest } => write!(
+                f,
+                "the model's stiffest mode is not finite (omega_max {omega_max:e} rad/s, damping rate \
+                 {gamma_max:e} 1/s); stiffest spring for its mass: {stiffest}"
+            ),
+            Self::Factor(e) => write!(f, "prefactored matrix: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for SimulationBuildError {}
+
+impl From<ModelValidateError> for SimulationBuildError {
+    fn from(e: ModelValidateError) -> Self {
+        Self::Model(e)
+    }
+}
