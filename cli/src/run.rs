@@ -1,6 +1,7 @@
 //! `lamina run`: the core process. Steps a scene at a fixed rate on absolute deadlines,
 //! pinned and at SCHED_FIFO when the system allows, and reports every frame-budget miss.
 
+use lamina_core::hand_tool::HandTool;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, Scene};
 use lamina_core::solver::Simulation;
@@ -48,14 +49,21 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         return Err("--seconds must be positive".into());
     }
     let model = scene.build_model().map_err(|e| e.to_string())?;
-    let effects = super::haptic_link::effects_for_build(scene);
-    let mut sim = Simulation::<T>::new(&model, scene.solver.clone(), effects).map_err(|e| {
-        format!("{}: {e}", scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string()))
-    })?;
-    if scene.tool.is_some_and(|t| matches!(t.source, lamina_core::scene::ToolSource::Haptics { .. })) {
-        // Counted in the critical step above, out of the loop until the haptics process speaks.
-        sim.effects_mut().tool = None;
-    }
+    let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
+    // A haptics-driven tool is built into the simulation (its stiffness counted in the
+    // critical step) and parked until the haptics process speaks.
+    let (mut sim, mut hand_tool) = match scene.tool {
+        Some(settings) if matches!(settings.source, lamina_core::scene::ToolSource::Haptics { .. }) => {
+            let (sim, tool) = HandTool::simulation::<T>(&model, scene.solver.clone(), scene.effects.clone(), settings)
+                .map_err(|e| format!("{}: {e}", scene_name()))?;
+            (sim, Some(tool))
+        }
+        _ => (
+            Simulation::<T>::new(&model, scene.solver.clone(), scene.effects.clone())
+                .map_err(|e| format!("{}: {e}", scene_name()))?,
+            None,
+        ),
+    };
     let _ = install_stop_handler(&STOP);
     println!(
         "scene '{}' ({}): {} nodes, {} springs, {} layers",
@@ -114,7 +122,9 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
             let mut p = super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
             if let Some(h) = p.haptic.as_mut() {
-                h.prepare(&mut sim);
+                if let Some(tool) = hand_tool.take() {
+                    h.attach(tool);
+                }
                 println!(
                     "tool: sphere driven by the haptics process on '{prefix}/tool', contact published on '{prefix}/feedback' every tick"
                 );

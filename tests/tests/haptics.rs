@@ -6,8 +6,8 @@
 
 use lamina_bridge::wire::ToolCommand;
 use lamina_bridge::{Bridge, BridgeConfig, FeedbackSubscriber, ToolPublisher};
+use lamina_core::hand_tool::HandTool;
 use lamina_core::scene::{Scene, ToolSource};
-use lamina_core::solver::{Simulation, SphereTool};
 use lamina_haptics::DeviceMapping;
 use lamina_tests::{unique_prefix, wait_with_watchdog, workspace_bin};
 use std::path::{Path, PathBuf};
@@ -135,12 +135,8 @@ fn output(child: Child, limit: Duration, what: &str) -> (std::process::ExitStatu
 fn offline_press_force(traj: &[(f64, [f64; 3], u32)], hold_end_s: f64) -> [f64; 3] {
     let scene = Scene::builtin_default();
     let model = scene.build_model().unwrap();
-    let tool = scene.tool.unwrap();
-    let mut effects = scene.effects.clone();
-    effects.tool =
-        Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: [1e3; 3], velocity: [0.0; 3] });
-    let mut sim = Simulation::<f32>::new(&model, scene.solver.clone(), effects).unwrap();
-    sim.effects_mut().tool = None;
+    let (mut sim, mut tool) =
+        HandTool::simulation::<f32>(&model, scene.solver.clone(), scene.effects.clone(), scene.tool.unwrap()).unwrap();
     let mapping = DeviceMapping::y_up_model(device_origin());
     let dt = 1.0 / scene.rate_hz as f64;
     for _ in 0..scene.rate_hz {
@@ -149,11 +145,10 @@ fn offline_press_force(traj: &[(f64, [f64; 3], u32)], hold_end_s: f64) -> [f64; 
     let frames = (hold_end_s / dt).round() as usize;
     for k in 0..frames {
         let centre = mapping.to_model(position_at(traj, k as f64 * dt));
-        let sphere = SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: centre, velocity: [0.0; 3] };
-        sim.effects_mut().tool = Some(sphere);
+        tool.move_to(&mut sim, centre, None);
         sim.step();
     }
-    let fb = sim.tool_feedback();
+    let fb = tool.feedback(&sim);
     assert!(fb.in_contact, "the offline press touches the skin");
     mapping.force_to_device(fb.force)
 }

@@ -21,8 +21,8 @@ use core::time::Duration;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use lamina_core::hand_tool::HandTool;
 use lamina_core::scene::{Scene, ToolSource};
-use lamina_core::solver::{Simulation, SphereTool};
 use lamina_viewer::app::{HeadlessViewer, Hud, ViewerOptions};
 use lamina_viewer::png_io::{read_png, write_png};
 use lamina_viewer::source::{FrameSource, SourceEvent, SyntheticSource};
@@ -64,11 +64,8 @@ fn render_default_scene() -> Option<(u32, u32, Vec<u8>)> {
     let model = scene.build_model().expect("the default scene builds");
     let tool = scene.tool.expect("the default scene has a tool");
     let ToolSource::Haptics { device_origin, .. } = tool.source else { panic!("a haptics tool") };
-    let mut effects = scene.effects.clone();
-    effects.tool =
-        Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: [1e3; 3], velocity: [0.0; 3] });
-    let mut sim = Simulation::<f32>::new(&model, scene.solver.clone(), effects).expect("the default scene steps");
-    sim.effects_mut().tool = None;
+    let (mut sim, mut hand) = HandTool::simulation::<f32>(&model, scene.solver.clone(), scene.effects.clone(), tool)
+        .expect("the default scene steps");
     let frames = (0.4 * scene.rate_hz as f64) as usize;
     let mut centre = device_origin;
     for k in 0..frames {
@@ -76,9 +73,7 @@ fn render_default_scene() -> Option<(u32, u32, Vec<u8>)> {
         if t >= 0.1 {
             let press = 0.008 * ((t - 0.1) / 0.2).min(1.0);
             centre = [device_origin[0], device_origin[1] - press, device_origin[2]];
-            let sphere =
-                SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: centre, velocity: [0.0; 3] };
-            sim.effects_mut().tool = Some(sphere);
+            hand.move_to(&mut sim, centre, None);
         }
         sim.step();
     }

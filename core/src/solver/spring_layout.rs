@@ -147,11 +147,6 @@ impl<P> SpringBlock<P> {
         self.source.len()
     }
 
-    /// True when the block has no springs.
-    pub fn is_empty(&self) -> bool {
-        self.source.is_empty()
-    }
-
     /// Lowest and one-past-highest node touched by part `t`.
     pub fn part_node_bounds(&self, t: usize) -> Option<(u32, u32)> {
         let part = self.parts.get(t)?;
@@ -177,8 +172,6 @@ pub struct SpringLayout<T> {
     pub linear: SpringBlock<LinearParams<T>>,
     /// Bilinear springs.
     pub bilinear: SpringBlock<BilinearParams<T>>,
-    /// Number of threads the parts were cut for.
-    pub threads: usize,
 }
 
 /// Largest gap in first nodes that a run bridges with null springs (zero stiffness and
@@ -367,6 +360,7 @@ fn build_block<P: ParamTable>(
 impl<T: Real> SpringLayout<T> {
     /// Streaming layout of `springs`, cut into `threads` parts, runs of identical springs
     /// sharing one parameter entry.
+    #[cfg(test)]
     pub fn new(springs: &SpringSet, threads: usize) -> Self {
         Self::with_sharing(springs, threads, true)
     }
@@ -407,7 +401,7 @@ impl<T: Real> SpringLayout<T> {
                 p.c.push(r(c));
             },
         );
-        Self { linear, bilinear, threads: threads.max(1) }
+        Self { linear, bilinear }
     }
 
     /// Total number of springs in the layout, null springs included.
@@ -415,18 +409,8 @@ impl<T: Real> SpringLayout<T> {
         self.linear.len() + self.bilinear.len()
     }
 
-    /// True when there are no springs.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Fraction of layout entries that sit in runs (the rest are loose).
-    pub fn run_fraction(&self) -> f64 {
-        let in_runs = self.linear.loose_first + self.bilinear.loose_first;
-        if self.is_empty() { 1.0 } else { in_runs as f64 / self.len() as f64 }
-    }
-
     /// Null springs added to bridge gaps in runs.
+    #[cfg(test)]
     pub fn null_springs(&self) -> usize {
         let count = |src: &[u32]| src.iter().filter(|&&s| s == NULL_SPRING).count();
         count(&self.linear.source) + count(&self.bilinear.source)

@@ -66,11 +66,6 @@ impl<T: Real> SpringPass<T> {
         &self.layout
     }
 
-    /// Number of workers the pass was laid out for.
-    pub fn threads(&self) -> usize {
-        self.windows.len()
-    }
-
     /// Computes spring forces at positions `x` (m) and velocities `v` (m/s) into the
     /// workers' windows. Read them with [`SpringPass::for_each_block`].
     ///
@@ -128,22 +123,6 @@ impl<T: Real> SpringPass<T> {
                 }
                 per_node(start..end, [&fx[..n], &fy[..n], &fz[..n]]);
                 start = end;
-            }
-        });
-    }
-
-    /// Total spring forces into `out` (N), single entry point for integrators that need the
-    /// force vector itself.
-    pub fn forces_into(&mut self, pool: &WorkerPool, x: &Vec3s<T>, v: &Vec3s<T>, out: &mut Vec3s<T>) {
-        let [ox, oy, oz] = out.slices_mut();
-        let (ox, oy, oz) = (DisjointSlice::new(ox), DisjointSlice::new(oy), DisjointSlice::new(oz));
-        self.accumulate(pool, x, v);
-        self.for_each_block(pool, |range, f| {
-            // SAFETY: blocks handed to per_node are disjoint.
-            unsafe {
-                ox.range_mut(range.clone()).copy_from_slice(f[0]);
-                oy.range_mut(range.clone()).copy_from_slice(f[1]);
-                oz.range_mut(range).copy_from_slice(f[2]);
             }
         });
     }

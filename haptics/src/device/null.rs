@@ -1,4 +1,4 @@
-//! The device used when none is connected (temporary minimal version).
+//! The device used when none is connected.
 
 use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
 
