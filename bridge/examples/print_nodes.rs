@@ -8,7 +8,7 @@
 //! Arguments: the service prefix (default `lamina`) and how many seconds to listen (default
 //! 5). Each line: sequence number, simulated time, node count, the first node's position and
 //! the one-way latency from the core's publish to this read (both stamped on
-//! `CLOCK_MONOTONIC`, see `lamina_bridge::clock`).
+//! `CLOCK_MONOTONIC`, see `lamina_bridge::now_ns`).
 
 use core::time::Duration;
 use lamina_bridge::{Bridge, BridgeConfig, NodesSubscriber, now_ns};

@@ -31,16 +31,15 @@
 //! ```
 
 pub mod bridge;
-pub mod clock;
 pub mod publish;
 pub mod services;
-pub mod shutdown;
 pub mod subscribe;
 pub mod topology;
 pub mod wire;
 
 pub use bridge::{Bridge, BridgeConfig, BridgeOpenError, DEFAULT_PREFIX, ServiceNames};
-pub use clock::now_ns;
+/// The time base of every `*_time_ns` field on the wire: `CLOCK_MONOTONIC`, ns.
+pub use lamina_rt::now_ns;
 pub use publish::{
     FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher, StatsPublisher,
     ToolPublisher, TopologyPublishError, TopologyPublisher,

@@ -41,13 +41,13 @@ use iceoryx2::port::update_connections::{ConnectionFailure, UpdateConnections};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, PortFactory as _, ipc};
 
 use crate::bridge::Bridge;
-use crate::clock::now_ns;
 use crate::services::{
     Message, MessageService, NodesService, PortCreateError, TopologyService, WakeService, open_message_service,
     open_nodes_service, open_topology_service, open_wake_service,
 };
 use crate::topology::{Topology, TopologyEncodeError};
 use crate::wire::NodesHeader;
+use lamina_rt::now_ns;
 
 /// Why a node frame was not published. Nothing was sent when this is returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

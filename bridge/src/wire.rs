@@ -5,7 +5,7 @@
 //! memory. Each carries a stable `type_name` (`Lamina...V1`) so that two builds with the same
 //! layout connect, and a layout change (bump the `V`) refuses to connect instead of misreading
 //! bytes. Units are SI (m, s, N, N/m); times are nanoseconds of `CLOCK_MONOTONIC`
-//! ([`crate::clock::now_ns`]), which is system-wide and so comparable across processes.
+//! ([`crate::now_ns`]), which is system-wide and so comparable across processes.
 //!
 //! Padding is spelled out as `reserved` fields (always zero) so that the byte layout is the
 //! same for every compiler and no uninitialised bytes reach shared memory.
@@ -48,7 +48,7 @@ pub struct NodesHeader {
     pub tick: u64,
     /// Simulated time at this frame, seconds.
     pub sim_time_s: f64,
-    /// `CLOCK_MONOTONIC` at the moment of sending, nanoseconds (see [`crate::clock::now_ns`]).
+    /// `CLOCK_MONOTONIC` at the moment of sending, nanoseconds (see [`crate::now_ns`]).
     pub publish_time_ns: u64,
     /// Number of positions in the payload (equals the slice length).
     pub node_count: u32,

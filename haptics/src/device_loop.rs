@@ -11,9 +11,9 @@ use super::mapping::DeviceMapping;
 use super::renderer::{ForceRenderer, RenderLimits};
 use super::safety::{SafetyCounts, SafetyEvent};
 use crate::device::{DeviceError, HapticDevice};
-use lamina_bridge::clock::now_ns;
 use lamina_bridge::wire::ToolCommand;
 use lamina_bridge::{Bridge, FeedbackSubscriber, PortCreateError, ToolPublisher};
+use lamina_rt::now_ns;
 
 /// Settings of one haptics run.
 #[derive(Debug, Clone, Copy, PartialEq)]

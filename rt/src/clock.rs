@@ -99,34 +99,54 @@ fn ns_to_timespec(ns: u64) -> libc::timespec {
     }
 }
 
+/// `CLOCK_MONOTONIC` now, ns since an unspecified origin (usually boot).
+///
+/// This is the one time base of every Lamina process: it is system-wide on Linux, so a time
+/// stamp taken in the core and one taken in the viewer can be subtracted to get a one-way
+/// latency (the wire's `publish_time_ns` fields are stamped with it).
+/// `std::time::Instant` is not used because its value cannot be sent to another process.
+///
+/// ```
+/// let (a, b) = (lamina_rt::now_ns(), lamina_rt::now_ns());
+/// assert!(b >= a);
+/// ```
+pub fn now_ns() -> u64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always
+    // exists on Linux, so the call cannot fail.
+    unsafe {
+        libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts);
+    }
+    ts.tv_sec as u64 * NS_PER_S + ts.tv_nsec as u64
+}
+
+/// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute, so loops do not drift);
+/// returns at once if it has passed and restarts after signal interruptions. No spin: see
+/// [`MonotonicClock`] for a sleep that hides the kernel's wake-up latency.
+pub fn sleep_until_ns(deadline_ns: u64) {
+    let ts = ns_to_timespec(deadline_ns);
+    loop {
+        // SAFETY: `ts` is a valid timespec; the remaining-time pointer may be null with
+        // TIMER_ABSTIME.
+        let rc =
+            unsafe { libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut()) };
+        // clock_nanosleep returns the error number (not -1/errno). Only EINTR is worth a
+        // retry: with an absolute deadline a retry cannot oversleep.
+        if rc != libc::EINTR {
+            return;
+        }
+    }
+}
+
 impl Clock for MonotonicClock {
     fn now(&self) -> u64 {
-        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-        // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always
-        // exists on Linux, so the call cannot fail.
-        unsafe {
-            libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts);
-        }
-        ts.tv_sec as u64 * NS_PER_S + ts.tv_nsec as u64
+        now_ns()
     }
 
     fn sleep_until(&self, deadline_ns: u64) {
         let coarse = deadline_ns.saturating_sub(self.spin_ns);
         if coarse > self.now() {
-            let ts = ns_to_timespec(coarse);
-            loop {
-                // SAFETY: `ts` is a valid timespec; the remaining-time pointer
-                // may be null with TIMER_ABSTIME.
-                let rc = unsafe {
-                    libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut())
-                };
-                // clock_nanosleep returns the error number (not -1/errno).
-                // Only EINTR is worth a retry: with an absolute deadline a
-                // retry cannot oversleep.
-                if rc != libc::EINTR {
-                    break;
-                }
-            }
+            sleep_until_ns(coarse);
         }
         while self.now() < deadline_ns {
             std::hint::spin_loop();

@@ -197,7 +197,7 @@ fn run_headless(args: &Args) -> Result<(), String> {
     let mut idle_since: Option<Instant> = None;
     let mut last_report = Instant::now();
     let run_start = Instant::now();
-    while args.frames.is_none_or(|n| rendered < n) && !lamina_bridge::shutdown::requested() {
+    while args.frames.is_none_or(|n| rendered < n) && lamina_rt::caught_stop_signal().is_none() {
         match source.next_event(Duration::from_millis(500)) {
             SourceEvent::Model(model) => {
                 println!(
@@ -275,9 +275,12 @@ fn report(f: &Figures, rendered: u64, wall: Duration) {
     }
 }
 
+/// Set by the SIGINT/SIGTERM handler (lamina-rt's signal module).
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn main() -> ExitCode {
     let args = Args::parse();
-    lamina_bridge::shutdown::install();
+    let _ = lamina_rt::install_stop_handler(&STOP);
     let result = if args.headless { run_headless(&args) } else { run_window(&args) };
     match result {
         Ok(()) => ExitCode::SUCCESS,

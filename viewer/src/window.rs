@@ -183,7 +183,7 @@ impl ApplicationHandler for App {
             }
             WindowEvent::RedrawRequested => {
                 self.redraw();
-                if self.frames_left == Some(0) || lamina_bridge::shutdown::requested() {
+                if self.frames_left == Some(0) || lamina_rt::caught_stop_signal().is_some() {
                     event_loop.exit();
                 }
             }

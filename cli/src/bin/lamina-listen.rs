@@ -9,7 +9,8 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
 use hdrhistogram::Histogram;
-use lamina_bridge::{Bridge, BridgeConfig, NodesSubscriber, SampleReceiveError, now_ns, shutdown};
+use lamina_bridge::{Bridge, BridgeConfig, NodesSubscriber, SampleReceiveError, now_ns};
+use lamina_rt::caught_stop_signal;
 use serde::Serialize;
 
 /// How the listener waits for frames.
@@ -124,6 +125,9 @@ impl Tally {
     }
 }
 
+/// Set by the SIGINT/SIGTERM handler (lamina-rt's signal module).
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn main() -> std::process::ExitCode {
     match run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -136,8 +140,8 @@ fn main() -> std::process::ExitCode {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
-    if !shutdown::install() {
-        eprintln!("lamina-listen: could not install SIGTERM handler; no report on SIGTERM");
+    if let Err(e) = lamina_rt::install_stop_handler(&STOP) {
+        eprintln!("lamina-listen: {e}; no report on SIGTERM");
     }
     if let Some(cpu) = args.pin
         && !core_affinity::set_for_current(core_affinity::CoreId { id: cpu })
@@ -170,7 +174,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let slice = Duration::from_millis(50);
     let mut stdout = std::io::stdout();
 
-    while !shutdown::requested() && start.elapsed() < run_for {
+    while caught_stop_signal().is_none() && start.elapsed() < run_for {
         let received = match args.mode {
             Mode::Poll => subscriber.try_receive(),
             Mode::Block => subscriber.receive_timeout(slice),
@@ -221,7 +225,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         mode: args.mode,
         pinned_cpu: args.pin,
         duration_s: start.elapsed().as_secs_f64(),
-        terminated_by_signal: shutdown::requested(),
+        terminated_by_signal: caught_stop_signal().is_some(),
         count: tally.count,
         first_sequence: tally.first,
         last_sequence: tally.last,

@@ -9,8 +9,9 @@
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use lamina_bridge::clock::{now_ns, sleep_until_ns};
-use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher, shutdown};
+use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher};
+use lamina_rt::caught_stop_signal;
+use lamina_rt::{now_ns, sleep_until_ns};
 use serde::Serialize;
 
 /// Publish synthetic Lamina node frames at a fixed rate.
@@ -54,6 +55,9 @@ struct Summary {
     delivered_total: u64,
 }
 
+/// Set by the SIGINT/SIGTERM handler (lamina-rt's signal module).
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn main() -> std::process::ExitCode {
     match run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -69,7 +73,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     if !(args.rate.is_finite() && args.rate > 0.0) {
         return Err("--rate must be a positive number".into());
     }
-    shutdown::install();
+    let _ = lamina_rt::install_stop_handler(&STOP);
     if let Some(cpu) = args.pin
         && !core_affinity::set_for_current(core_affinity::CoreId { id: cpu })
     {
@@ -86,7 +90,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let wait_start = Instant::now();
     while publisher.subscriber_count() < args.wait_subscribers
         && wait_start.elapsed() < Duration::from_secs(10)
-        && !shutdown::requested()
+        && caught_stop_signal().is_none()
     {
         std::thread::sleep(Duration::from_millis(10));
     }
@@ -98,7 +102,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let start = Instant::now();
     let mut next = now_ns();
     let mut tick = 0u64;
-    while !shutdown::requested() && start.elapsed() < run_for {
+    while caught_stop_signal().is_none() && start.elapsed() < run_for {
         let t0 = now_ns();
         let phase = tick as f32 * 1e-3;
         match publisher.publish_from_fn(sent, tick, tick as f64 * dt, args.nodes, |i| [i as f32 * 1e-4, phase, 0.0]) {

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
-use lamina_bridge::clock::now_ns;
+use lamina_rt::now_ns;
 
 /// One row of a trajectory: where the handle is at a script time.
 #[derive(Debug, Clone, Copy, PartialEq)]
