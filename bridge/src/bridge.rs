@@ -13,6 +13,7 @@
 //! # }
 //! ```
 
+use crate::domain::{DomainError, UserDomain};
 use iceoryx2::config::Config;
 use iceoryx2::node::{CleanupState, NodeCreationFailure};
 use iceoryx2::prelude::{
@@ -29,12 +30,13 @@ pub struct BridgeConfig {
     /// Service name prefix, so several simulations can share a host. Default [`DEFAULT_PREFIX`].
     /// Every process of one simulation must use the same prefix.
     pub prefix: String,
-    /// iceoryx2 root directory for its management files. Default `None`: iceoryx2's own
-    /// (`/tmp/iceoryx2/`). Must end with `/`. All peers must agree.
+    /// iceoryx2 root directory for its management files. Default `None`: the user's own
+    /// domain, `/tmp/lamina-<uid>/` created `0700` (see [`UserDomain`]). Must end with `/`.
+    /// All peers must agree.
     pub root_path: Option<String>,
     /// iceoryx2 file-name prefix for shared memory and management files (letters, digits, `_`,
-    /// `-`, `.`). Default `None`: iceoryx2's `iox2_`. A distinct value gives a fully separate
-    /// iceoryx2 domain (its own node list); all peers must agree.
+    /// `-`, `.`). Default `None`: the user's own, `iox2_lamina_u<uid>_`. A distinct value
+    /// gives a fully separate iceoryx2 domain (its own node list); all peers must agree.
     pub file_prefix: Option<String>,
     /// iceoryx2 node name shown by `iox2 node list`. Default `None` (unnamed).
     pub node_name: Option<String>,
@@ -67,8 +69,10 @@ impl BridgeConfig {
 }
 
 /// Why a [`Bridge`] could not be opened.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum BridgeOpenError {
+    /// The user's domain directory or shared memory is not safely this user's.
+    Domain(DomainError),
     /// The prefix is empty or makes an invalid iceoryx2 service name.
     InvalidPrefix,
     /// `root_path` is not a valid absolute directory path.
@@ -94,7 +98,13 @@ impl core::fmt::Display for BridgeOpenError {
             Self::InvalidRootPath => write!(f, "invalid iceoryx2 root path"),
             Self::InvalidFilePrefix => write!(f, "invalid iceoryx2 file prefix"),
             Self::InvalidNodeName => write!(f, "invalid iceoryx2 node name"),
-            Self::Node(e) => write!(f, "cannot create iceoryx2 node: {e}"),
+            Self::Domain(e) => write!(f, "{e}"),
+            Self::Node(e) => write!(
+                f,
+                "cannot create iceoryx2 node: {e} (iceoryx2 domain: root {}, files /dev/shm/{}*)",
+                UserDomain::current().root.display(),
+                UserDomain::current().file_prefix
+            ),
         }
     }
 }
@@ -146,6 +156,7 @@ pub struct Bridge {
     node: Node<ipc::Service>,
     names: ServiceNames,
     prefix: String,
+    domain: UserDomain,
 }
 
 impl Bridge {
@@ -154,13 +165,24 @@ impl Bridge {
         set_log_level_from_env_or(cfg.log_level);
         let names = ServiceNames::new(&cfg.prefix).ok_or(BridgeOpenError::InvalidPrefix)?;
         let mut config = Config::default();
+        let mut domain = UserDomain::current();
         if let Some(root) = &cfg.root_path {
-            let path = Path::new(root.as_bytes()).map_err(|_| BridgeOpenError::InvalidRootPath)?;
-            config.global.set_root_path(&path);
+            domain.root = std::path::PathBuf::from(root);
         }
         if let Some(prefix) = &cfg.file_prefix {
-            config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|_| BridgeOpenError::InvalidFilePrefix)?;
+            domain.file_prefix.clone_from(prefix);
         }
+        if cfg.root_path.is_none() {
+            domain.prepare().map_err(BridgeOpenError::Domain)?;
+        }
+        let mut root = domain.root.display().to_string();
+        if !root.ends_with('/') {
+            root.push('/');
+        }
+        let path = Path::new(root.as_bytes()).map_err(|_| BridgeOpenError::InvalidRootPath)?;
+        config.global.set_root_path(&path);
+        config.global.prefix =
+            FileName::new(domain.file_prefix.as_bytes()).map_err(|_| BridgeOpenError::InvalidFilePrefix)?;
         let mut builder = NodeBuilder::new().config(&config).signal_handling_mode(cfg.signal_handling);
         if let Some(name) = &cfg.node_name {
             let name = NodeName::new(name).map_err(|_| BridgeOpenError::InvalidNodeName)?;
@@ -170,7 +192,15 @@ impl Bridge {
         // Node creation already cleans up with the default config; do it explicitly so a
         // changed config cannot silently turn recovery off.
         node.try_cleanup_dead_nodes();
-        Ok(Self { node, names, prefix: cfg.prefix.clone() })
+        if cfg.file_prefix.is_none() {
+            domain.secure().map_err(BridgeOpenError::Domain)?;
+        }
+        Ok(Self { node, names, prefix: cfg.prefix.clone(), domain })
+    }
+
+    /// The iceoryx2 domain this bridge lives in.
+    pub fn domain(&self) -> &UserDomain {
+        &self.domain
     }
 
     /// Removes the resources of peers whose process died; returns how many were cleaned.

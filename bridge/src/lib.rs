@@ -31,6 +31,7 @@
 //! ```
 
 pub mod bridge;
+pub mod domain;
 pub mod publish;
 pub mod services;
 pub mod subscribe;
@@ -38,11 +39,12 @@ pub mod topology;
 pub mod wire;
 
 pub use bridge::{Bridge, BridgeConfig, BridgeOpenError, DEFAULT_PREFIX, ServiceNames};
+pub use domain::{DomainError, PrefixLock, PrefixLockError, UserDomain};
 /// The time base of every `*_time_ns` field on the wire: `CLOCK_MONOTONIC`, ns.
 pub use lamina_rt::now_ns;
 pub use publish::{
-    FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher, StatsPublisher,
-    ToolPublisher, TopologyPublishError, TopologyPublisher,
+    FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher,
+    NodesPublisherCreateError, StatsPublisher, ToolPublisher, TopologyPublishError, TopologyPublisher,
 };
 pub use services::{Message, PortCreateError, ServiceOpenError};
 pub use subscribe::{

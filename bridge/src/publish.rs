@@ -41,6 +41,7 @@ use iceoryx2::port::update_connections::{ConnectionFailure, UpdateConnections};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, PortFactory as _, ipc};
 
 use crate::bridge::Bridge;
+use crate::domain::{PrefixLock, PrefixLockError};
 use crate::services::{
     Message, MessageService, NodesService, PortCreateError, TopologyService, WakeService, open_message_service,
     open_nodes_service, open_topology_service, open_wake_service,
@@ -155,6 +156,32 @@ impl From<TopologyEncodeError> for TopologyPublishError {
     }
 }
 
+/// Why a [`NodesPublisher`] could not be created.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum NodesPublisherCreateError {
+    /// Another process publishes node frames on this prefix (one core per prefix).
+    PrefixInUse(PrefixLockError),
+    /// iceoryx2 refused the service, publisher or notifier.
+    Port(PortCreateError),
+}
+
+impl core::fmt::Display for NodesPublisherCreateError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::PrefixInUse(e) => write!(f, "{e}"),
+            Self::Port(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl core::error::Error for NodesPublisherCreateError {}
+
+impl<E: Into<PortCreateError>> From<E> for NodesPublisherCreateError {
+    fn from(value: E) -> Self {
+        Self::Port(value.into())
+    }
+}
+
 /// A notifier that counts its failures instead of failing the publish.
 #[derive(Debug)]
 struct Waker {
@@ -186,6 +213,7 @@ impl Waker {
 /// Not `Send`: create it on the thread that publishes.
 #[derive(Debug)]
 pub struct NodesPublisher {
+    _lock: PrefixLock,
     service: NodesService,
     publisher: Publisher<ipc::Service, [[f32; 3]], NodesHeader>,
     waker: Waker,
@@ -193,8 +221,15 @@ pub struct NodesPublisher {
 }
 
 impl NodesPublisher {
-    /// Creates the publisher for frames of at most `max_nodes` positions (at least 1).
-    pub fn create(bridge: &Bridge, max_nodes: usize) -> Result<Self, PortCreateError> {
+    /// Creates the publisher for frames of at most `max_nodes` positions (at least 1). It
+    /// holds the prefix's [`PrefixLock`] while it lives: subscribers never see two streams.
+    ///
+    /// # Errors
+    /// [`NodesPublisherCreateError::PrefixInUse`] when another process already publishes
+    /// node frames on the prefix; otherwise what iceoryx2 refused.
+    pub fn create(bridge: &Bridge, max_nodes: usize) -> Result<Self, NodesPublisherCreateError> {
+        let lock =
+            PrefixLock::acquire(bridge.domain(), bridge.prefix()).map_err(NodesPublisherCreateError::PrefixInUse)?;
         let max_nodes = max_nodes.max(1);
         let service = open_nodes_service(bridge)?;
         let publisher = service
@@ -205,7 +240,7 @@ impl NodesPublisher {
             .max_loaned_samples(1)
             .create()?;
         let waker = Waker::create(bridge, &bridge.names().nodes)?;
-        Ok(Self { service, publisher, waker, max_nodes })
+        Ok(Self { _lock: lock, service, publisher, waker, max_nodes })
     }
 
     /// The fixed maximum node count per frame.
