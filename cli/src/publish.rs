@@ -53,11 +53,13 @@ impl CorePublisher {
     /// `tool`, also subscribes to `tool` and publishes `feedback`.
     pub fn open(prefix: &str, model: &Model, tool: Option<&ToolSettings>) -> Result<Self, String> {
         let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(|e| format!("bridge: {e}"))?;
+        // The node publisher first: it holds the prefix's lock, so a second core on a live
+        // prefix stops here, before it publishes anything.
+        let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| e.to_string())?;
         let topology = topology_of(model);
         let mut topo_pub =
             TopologyPublisher::create(&bridge, topology.word_count()).map_err(|e| format!("topology service: {e}"))?;
         topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;
-        let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| format!("nodes service: {e}"))?;
         let stats = StatsPublisher::create(&bridge).map_err(|e| format!("stats service: {e}"))?;
         let haptic = super::haptic_link::HapticLink::open(&bridge, tool)?;
         Ok(Self {
