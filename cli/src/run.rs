@@ -99,9 +99,16 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     let setup = RealtimeSetup::apply(&request);
     print!("{setup}");
 
-    // Warm-up outside the timed loop: first touches of every buffer.
+    // Warm-up outside the timed loop: first touches of every buffer. A stop signal ends a
+    // frame between two sub-steps, so a scene with long frames still stops within one
+    // sub-step's work.
+    let mut stopped_after: Option<u64> = None;
     for _ in 0..10 {
-        sim.step();
+        let before = sim.counters().substeps;
+        if !sim.step_or_stop(&STOP) {
+            stopped_after = Some(sim.counters().substeps - before);
+            break;
+        }
     }
     let policy = match scene.realtime.overrun {
         OverrunChoice::Skip => OverrunPolicy::Skip,
@@ -145,7 +152,12 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
             if let Some(h) = publisher.as_mut().and_then(|p| p.haptic.as_mut()) {
                 h.before_step(&mut sim);
             }
-            sim.step();
+            let before = sim.counters().substeps;
+            if !sim.step_or_stop(&STOP) {
+                // Stopped between two sub-steps: the partial frame is not published.
+                stopped_after = Some(sim.counters().substeps - before);
+                return ControlFlow::Break(());
+            }
             if let Some(p) = publisher.as_mut() {
                 probe.measure(&clock, || {
                     if let Some(h) = p.haptic.as_mut() {
@@ -175,9 +187,20 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
                 sim.guard_totals().rollbacks
             );
         }
-        if run.stop == StopReason::StopFlag {
-            let _ = writeln!(out, "stopped by signal");
+        if run.stop == StopReason::StopFlag || STOP.load(std::sync::atomic::Ordering::Relaxed) {
             break;
+        }
+    }
+    if STOP.load(std::sync::atomic::Ordering::Relaxed) {
+        let signal = lamina_rt::caught_stop_signal().map_or("a stop signal", lamina_rt::signal_name);
+        match stopped_after {
+            Some(done) => {
+                let _ =
+                    writeln!(out, "stopped by {signal} inside a frame after {done} of {} sub-steps", sim.substeps());
+            }
+            None => {
+                let _ = writeln!(out, "stopped by {signal} between frames");
+            }
         }
     }
     let _ = lp.clock().now();

@@ -1,0 +1,66 @@
+//! SIGTERM stops `lamina run` within one sub-step's work, even inside a long frame: the
+//! default limb with 10,000 fixed sub-steps per 1 ms frame (each frame about 0.1 s of work),
+//! terminated half a second in, reports that it stopped inside a frame, writes its report and
+//! exits cleanly.
+
+use std::io::Read;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[test]
+fn sigterm_inside_a_long_frame_stops_the_core_works() {
+    let dir = std::env::temp_dir().join(format!("lamina_stop_signal_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let default = include_str!("../../config/scenes/default.toml");
+    let scene = default
+        .replace("integrator = \"implicit_factored\"", "integrator = \"symplectic_euler\"")
+        .replace("substeps = \"auto\"", "substeps = 10000");
+    assert!(
+        scene.contains("substeps = 10000") && scene.contains("symplectic_euler"),
+        "default.toml's solver table changed"
+    );
+    let scene_path = dir.join("long_frames.toml");
+    std::fs::write(&scene_path, scene).unwrap();
+    let report = dir.join("report.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lamina"))
+        .args(["run", "--no-publish", "--quiet", "--seconds", "600", "--scene"])
+        .arg(&scene_path)
+        .arg("--report")
+        .arg(&report)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: kill(2) on the child's pid.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) }, 0);
+    // A watchdog, not a speed bound: a core that ignored the signal would run for 600 s.
+    let started = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if started.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("lamina run ignored SIGTERM for 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let (mut out, mut err) = (String::new(), String::new());
+    child.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert!(status.success(), "{status}\n{out}\n{err}");
+    let line = out.lines().find(|l| l.starts_with("stopped by SIGTERM")).unwrap_or_else(|| panic!("{out}"));
+    // "stopped by SIGTERM inside a frame after N of 10000 sub-steps"
+    let done: u64 = line
+        .split_whitespace()
+        .skip_while(|w| *w != "after")
+        .nth(1)
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(line.contains("inside a frame") && done < 10_000, "{line}");
+    assert!(out.contains("state finite: true"), "{out}");
+    assert!(report.exists(), "the report is written after the stop: {out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
