@@ -36,9 +36,10 @@ enum Command {
         /// Scene file (TOML); the built-in default scene when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
-        /// How long to run, s.
-        #[arg(long, default_value_t = 3.0)]
-        seconds: f64,
+        /// How long to run, s. Without it the core runs until SIGINT (Ctrl-C) or SIGTERM, then
+        /// prints its tables and writes its report.
+        #[arg(long)]
+        seconds: Option<f64>,
         /// Write the deadline monitor's JSON report here at exit.
         #[arg(long)]
         report: Option<PathBuf>,
@@ -51,9 +52,14 @@ enum Command {
         /// Do not publish over iceoryx2.
         #[arg(long)]
         no_publish: bool,
-        /// Write every tick's record (tick, wake, lateness, compute, send; ns) as CSV at exit.
+        /// Write the last ticks' records (tick, wake, lateness, compute, send; ns) as CSV at
+        /// exit: at most --ticks-csv-last of them, kept in a ring allocated before the loop.
         #[arg(long)]
         ticks_csv: Option<PathBuf>,
+        /// Ticks --ticks-csv keeps (the newest), 1 to 3,600,000 (one hour at 1 kHz; 40 bytes
+        /// each, 144 MB). Default 600,000: the last ten minutes at 1 kHz, 24 MB.
+        #[arg(long, default_value_t = 600_000)]
+        ticks_csv_last: usize,
     },
     /// Benchmarks that print tables.
     Bench {
@@ -319,9 +325,9 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             bench_capacity::bench(&opts)
         }
-        Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv } => {
+        Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv, ticks_csv_last } => {
             let prefix = (!no_publish).then_some(prefix);
-            run::run(&run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv })
+            run::run(&run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv, ticks_csv_last })
         }
         Command::Bench {
             what:

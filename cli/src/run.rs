@@ -19,14 +19,20 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// Options of `lamina run`.
 pub struct RunOptions {
     pub scene: Option<PathBuf>,
-    pub seconds: f64,
+    /// Run length, s; `None`: until SIGINT or SIGTERM.
+    pub seconds: Option<f64>,
     pub report: Option<PathBuf>,
     pub quiet: bool,
     /// iceoryx2 service prefix; `None`: do not publish.
     pub prefix: Option<String>,
-    /// Write every tick's record (tick, wake, lateness, compute, send; ns) as CSV at exit.
+    /// Write the last ticks' records (tick, wake, lateness, compute, send; ns) as CSV at exit.
     pub ticks_csv: Option<PathBuf>,
+    /// How many ticks `ticks_csv` keeps (the newest); 1 to [`MAX_TICKS_CSV`].
+    pub ticks_csv_last: usize,
 }
+
+/// Most ticks `--ticks-csv` keeps: one hour at 1 kHz (40 bytes each, 144 MB).
+pub const MAX_TICKS_CSV: usize = 3_600_000;
 
 /// Loads the scene named in `opts` or the built-in default.
 pub fn load_scene(path: &Option<PathBuf>) -> Result<Scene, String> {
@@ -45,8 +51,16 @@ pub fn run(opts: &RunOptions) -> Result<(), String> {
 }
 
 fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
-    if !(opts.seconds.is_finite() && opts.seconds > 0.0) {
-        return Err("--seconds must be positive".into());
+    if let Some(s) = opts.seconds
+        && !(s.is_finite() && s > 0.0 && s <= 1e9)
+    {
+        let shown = if s.is_finite() && (1e-3..1e6).contains(&s.abs()) { format!("{s}") } else { format!("{s:e}") };
+        return Err(format!(
+            "--seconds {shown}: must be a positive number of seconds, at most 1e9 (omit it to run until Ctrl-C)"
+        ));
+    }
+    if !(1..=MAX_TICKS_CSV).contains(&opts.ticks_csv_last) {
+        return Err(format!("--ticks-csv-last {}: must be from 1 to {MAX_TICKS_CSV}", opts.ticks_csv_last));
     }
     let model = scene.build_model().map_err(|e| e.to_string())?;
     let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
@@ -120,8 +134,8 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         config = config.with_budget_ns((b * 1e3) as u64);
     }
     if opts.ticks_csv.is_some() {
-        // Room for every tick of the run (and a margin), allocated before the loop starts.
-        config = config.with_record_capacity((opts.seconds * scene.rate_hz as f64) as usize + 1024);
+        // The newest ticks, in a ring allocated before the loop starts.
+        config = config.with_record_capacity(opts.ticks_csv_last);
     }
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
     let mut publisher = match &opts.prefix {
@@ -141,7 +155,10 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         None => None,
     };
     let probe = monitor.send_probe();
-    let total_ns = (opts.seconds * 1e9) as u64;
+    let total_ns = opts.seconds.map_or(u64::MAX, |s| (s * 1e9) as u64);
+    if opts.seconds.is_none() {
+        println!("running until Ctrl-C (SIGINT) or SIGTERM");
+    }
     let mut elapsed_ns = 0u64;
     let mut second = 0u64;
     let mut out = std::io::stdout().lock();

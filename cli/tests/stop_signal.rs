@@ -64,3 +64,63 @@ fn sigterm_inside_a_long_frame_stops_the_core_works() {
     assert!(report.exists(), "the report is written after the stop: {out}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn run_without_seconds_runs_until_sigterm_and_keeps_the_last_ticks_works() {
+    let dir = std::env::temp_dir().join(format!("lamina_until_signal_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (report, ticks) = (dir.join("report.json"), dir.join("ticks.csv"));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lamina"))
+        .args(["run", "--no-publish", "--quiet", "--ticks-csv-last", "200", "--report"])
+        .arg(&report)
+        .arg("--ticks-csv")
+        .arg(&ticks)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Long enough for more than 200 ticks at 1 kHz even on a loaded machine.
+    std::thread::sleep(Duration::from_millis(1500));
+    // SAFETY: kill(2) on the child's pid.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) }, 0);
+    let started = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        assert!(started.elapsed() < Duration::from_secs(120), "lamina run ignored SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut out = String::new();
+    child.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    assert!(status.success(), "{status}\n{out}");
+    assert!(out.contains("running until Ctrl-C") && out.contains("stopped by SIGTERM"), "{out}");
+    let report_text = std::fs::read_to_string(&report).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&report_text).unwrap();
+    let total_ticks =
+        json["summary"]["ticks"].as_u64().or_else(|| json["ticks"].as_u64()).expect("ticks in the report");
+    assert!(total_ticks > 200, "ran {total_ticks} ticks");
+    // The CSV keeps exactly the newest 200 ticks, consecutive, in order.
+    let csv = std::fs::read_to_string(&ticks).unwrap();
+    let rows: Vec<u64> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    assert_eq!(rows.len(), 200, "{csv:.200}");
+    assert!(rows.windows(2).all(|w| w[1] == w[0] + 1), "consecutive ticks");
+    assert_eq!(*rows.last().unwrap() + 1, total_ticks, "the newest tick is the last one run");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn run_with_absurd_length_or_ring_is_refused_fails() {
+    for (args, named) in [
+        (&["--seconds", "1e300"][..], "--seconds 1e300"),
+        (&["--seconds", "NaN"][..], "--seconds NaN"),
+        (&["--seconds=-1"][..], "--seconds -1"),
+        (&["--seconds", "1", "--ticks-csv-last", "0"][..], "--ticks-csv-last 0"),
+        (&["--seconds", "1", "--ticks-csv-last", "3600001"][..], "--ticks-csv-last 3600001"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_lamina")).args(["run", "--no-publish"]).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(named), "{args:?}: {err}");
+    }
+}
