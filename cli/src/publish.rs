@@ -25,6 +25,9 @@ pub struct CorePublisher {
     pub sequence: u64,
     /// Publishes that failed (the tick went on).
     pub failures: u64,
+    /// Node frames not published because the state was not finite (only possible with the
+    /// guard off): subscribers never receive NaN or infinity.
+    pub withheld: u64,
 }
 
 /// The model's static part for viewers and tools: outer surface, layer node ranges.
@@ -71,11 +74,16 @@ impl CorePublisher {
             stats_sequence: 0,
             sequence: 0,
             failures: 0,
+            withheld: 0,
         })
     }
 
     /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.
     pub fn publish_nodes<T: Real>(&mut self, tick: u64, state: &State<T>) {
+        if !state.x.all_finite() {
+            self.withheld += 1;
+            return;
+        }
         let (x, y, z) = (&state.x.x, &state.x.y, &state.x.z);
         let n = x.len();
         let result = self.nodes.publish_from_fn(self.sequence, tick, state.time, n, |i| {

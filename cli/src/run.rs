@@ -242,7 +242,13 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
             let (p, r) = (state.x.get_f64(i), rest.get_f64(i));
             ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt()
         })
-        .fold(0.0f64, f64::max);
+        .fold(0.0f64, |m, u| if u.is_nan() || m.is_nan() { f64::NAN } else { m.max(u) });
+    let finite = state.x.all_finite() && state.v.all_finite();
+    if !finite {
+        println!(
+            "the state is not finite: the simulation diverged (guard off; turn effects.guard on to roll bad frames back)"
+        );
+    }
     println!(
         "physics: simulated {:.3} s, max displacement {:.3} mm, guard rollbacks {} (substeps {}, implicit {}, frozen {}), state finite: {}",
         state.time,
@@ -251,10 +257,13 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         g.by_substeps,
         g.by_implicit,
         g.frozen,
-        state.x.all_finite() && state.v.all_finite()
+        finite
     );
     if let Some(p) = &publisher {
-        println!("published {} node frames ({} publish failures)", p.sequence, p.failures);
+        println!(
+            "published {} node frames ({} publish failures, {} withheld: state not finite)",
+            p.sequence, p.failures, p.withheld
+        );
         if let Some(h) = &p.haptic {
             let c = h.counts;
             println!(
@@ -274,6 +283,12 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     if let Some(path) = &opts.report {
         monitor.write_report(path).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());
+    }
+    if !finite {
+        return Err(format!(
+            "{}: the state diverged to non-finite values with the guard off (no such frame was published)",
+            scene_name()
+        ));
     }
     Ok(())
 }

@@ -142,7 +142,7 @@ fn targets_files_have_sources_and_malformed_ones_fail() {
     let skin = TissueTargets::load(&materials_dir().join("skin.toml")).unwrap();
     assert!(matches!(skin.law, TargetLaw::Bilinear { turn_strain, .. } if turn_strain == 0.28));
     let p = Path::new("bad.toml");
-    let cases: [(&str, &str); 5] = [
+    let cases: [(&str, &str); 6] = [
         (
             "name = \"x\"\nlaw = \"linear\"\nmodulus_pa = 1e3\nmax_strain = 0.3\n[sources]\nmodulus_pa = \"s\"\nextra = 1\n",
             "syntax",
@@ -153,6 +153,11 @@ fn targets_files_have_sources_and_malformed_ones_fail() {
         (
             "name = \"x\"\nlaw = \"bilinear\"\ninitial_modulus_pa = 1.0\nfinal_modulus_pa = 2.0\nturn_strain = 0.5\nmax_strain = 0.3\n",
             "turn_strain",
+        ),
+        (
+            "name = \"x\"\nlaw = \"linear\"\nmodulus_pa = 1e3\nmax_strain = 0.3\nweights = [0.0, 0.0]\n\
+             [sources]\nmodulus_pa = \"s\"\n",
+            "weights",
         ),
     ];
     for (text, field) in cases {

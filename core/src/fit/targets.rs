@@ -188,6 +188,10 @@ impl TissueTargets {
         if weights.len() != n || weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
             return Err(value_err("weights", &format!("{n} finite, non-negative weights")));
         }
+        if weights.iter().all(|&w| w == 0.0) {
+            // Every target ignored: the annealing would accept any springs.
+            return Err(value_err("weights", "at least one weight must be positive"));
+        }
         for (key, _) in targets.values() {
             if !targets.sources.contains_key(key) {
                 return Err(value_err("sources", &format!("no source given for {key}")));

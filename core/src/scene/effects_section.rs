@@ -21,7 +21,9 @@ pub(super) struct RawEffects {
     loads: Vec<RawLoad>,
     #[serde(default)]
     handles: Vec<RawHandle>,
-    guard: Option<RawGuard>,
+    /// `true`, `false` or a table of settings (read by [`guard`], so that an unknown key in
+    /// the table is named).
+    guard: Option<toml::Value>,
     tool: Option<RawTool>,
     skin_volume: Option<f64>,
 }
@@ -52,11 +54,13 @@ struct RawHandle {
     damping: f64,
 }
 
+/// `guard = { ... }`: settings over the defaults.
 #[derive(Deserialize)]
-#[serde(untagged)]
-enum RawGuard {
-    Flag(bool),
-    Settings { max_speed: Option<f64>, max_displacement: Option<f64>, retries: Option<u32> },
+#[serde(deny_unknown_fields)]
+struct RawGuardSettings {
+    max_speed: Option<f64>,
+    max_displacement: Option<f64>,
+    retries: Option<u32>,
 }
 
 /// The `[effects]` table: the effects in the loop, and the haptic tool's settings when the
@@ -120,23 +124,30 @@ fn handle((i, h): (usize, &RawHandle)) -> Result<DragHandle, FieldError> {
 }
 
 /// `guard = true | false` or a table of settings over the defaults; `None` when off.
-fn guard(raw: RawGuard) -> Result<Option<GuardSettings>, FieldError> {
-    match raw {
-        RawGuard::Flag(false) => Ok(None),
-        RawGuard::Flag(true) => Ok(Some(GuardSettings::default())),
-        RawGuard::Settings { max_speed, max_displacement, retries } => {
-            let d = GuardSettings::default();
-            let g = GuardSettings {
-                max_speed: max_speed.unwrap_or(d.max_speed),
-                max_displacement: max_displacement.unwrap_or(d.max_displacement),
-                retries: retries.unwrap_or(d.retries),
-            };
-            if !(g.max_speed > 0.0 && g.max_displacement > 0.0) {
-                return Err(FieldError::new("effects.guard", "max_speed and max_displacement must be positive"));
-            }
-            Ok(Some(g))
+fn guard(raw: toml::Value) -> Result<Option<GuardSettings>, FieldError> {
+    let settings: RawGuardSettings = match raw {
+        toml::Value::Boolean(false) => return Ok(None),
+        toml::Value::Boolean(true) => return Ok(Some(GuardSettings::default())),
+        toml::Value::Table(t) => toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| FieldError::new("effects.guard", e.message().trim()))?,
+        _ => {
+            return Err(FieldError::new(
+                "effects.guard",
+                "true, false or a table { max_speed, max_displacement, retries }",
+            ));
         }
+    };
+    let d = GuardSettings::default();
+    let g = GuardSettings {
+        max_speed: settings.max_speed.unwrap_or(d.max_speed),
+        max_displacement: settings.max_displacement.unwrap_or(d.max_displacement),
+        retries: settings.retries.unwrap_or(d.retries),
+    };
+    if !(g.max_speed > 0.0 && g.max_displacement > 0.0) {
+        return Err(FieldError::new("effects.guard", "max_speed and max_displacement must be positive"));
     }
+    Ok(Some(g))
 }
 
 #[cfg(test)]
@@ -178,9 +189,13 @@ mod tests {
             ),
             ("[[handles]]\nnode = 1\ntarget = [0.0, 0.0, 0.0]\nstiffness = -2.0\n", "effects.handles[0]"),
             ("guard = { max_speed = 0.0 }\n", "effects.guard"),
+            ("guard = { max_speed = 3.0, bogus_key = 3 }\n", "effects.guard"),
+            ("guard = 1\n", "effects.guard"),
         ];
         for (body, field) in cases {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");
         }
+        let unknown = parse("guard = { max_speed = 3.0, bogus_key = 3 }\n").unwrap_err();
+        assert!(unknown.message.contains("bogus_key"), "{}", unknown.message);
     }
 }

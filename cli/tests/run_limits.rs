@@ -1,7 +1,7 @@
-//! SIGTERM stops `lamina run` within one sub-step's work, even inside a long frame: the
-//! default limb with 10,000 fixed sub-steps per 1 ms frame (each frame about 0.1 s of work),
-//! terminated half a second in, reports that it stopped inside a frame, writes its report and
-//! exits cleanly.
+//! `lamina run` at its limits, with real processes: SIGTERM stops it within one sub-step's
+//! work even inside a long frame; without --seconds it runs until a signal and keeps only the
+//! newest ticks for --ticks-csv; absurd lengths are refused; a state that diverges with the
+//! guard off is reported, never published, and fails the run.
 
 use std::io::Read;
 use std::process::{Command, Stdio};
@@ -123,4 +123,36 @@ fn run_with_absurd_length_or_ring_is_refused_fails() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(named), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn diverged_state_with_guard_off_is_reported_and_never_published_fails() {
+    // A drag handle pulling toward a point 1 km away, symplectic Euler, guard off: the state
+    // goes non-finite. The run says so, publishes no such frame and exits with an error.
+    let dir = std::env::temp_dir().join(format!("lamina_diverged_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = "name = \"far-handle\"\nrate_hz = 1000\n[model]\nkind = \"cylinder_limb\"\ncolumns = 12\nrows = 3\n\
+                 length = 0.24\n[solver]\nintegrator = \"symplectic_euler\"\n[effects]\nguard = false\n\
+                 [[effects.handles]]\nnode = 12\ntarget = [1000.0, 0.0, 0.0]\nstiffness = 2.0\n";
+    let path = dir.join("far_handle.toml");
+    std::fs::write(&path, scene).unwrap();
+    let prefix = format!("diverged_{}", std::process::id());
+    let out = Command::new(env!("CARGO_BIN_EXE_lamina"))
+        .args(["run", "--quiet", "--seconds", "0.5", "--prefix", &prefix, "--scene"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "{stdout}");
+    assert!(stderr.contains("far_handle.toml") && stderr.contains("diverged"), "{stderr}");
+    assert!(stdout.contains("max displacement NaN mm") && stdout.contains("state finite: false"), "{stdout}");
+    let withheld: u64 = stdout
+        .split(" withheld")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(withheld > 0, "{stdout}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
