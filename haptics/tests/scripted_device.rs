@@ -33,6 +33,10 @@ fn trajectory_malformed_names_line_fails() {
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1,0,NaN,0\n", 3, "not finite"),
         ("t_s,x_m,y_m,z_m\n# c\n0,0,0,0\n0,0,0,1\n", 4, "does not increase"),
         ("t_s,x_m,y_m,z_m,buttons\n0,0,0,0,-1\n", 2, "bit set"),
+        // A last time of 1e12 s asked for a 3.2e17-byte trace; 1e300 s never ended.
+        ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e12,0,0,0\n", 3, "outside 0 to 86400 s"),
+        ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e300,0,0,0\n", 3, "outside 0 to 86400 s"),
+        ("t_s,x_m,y_m,z_m\n-1,0,0,0\n", 2, "outside 0 to 86400 s"),
     ];
     for (text, line, what) in cases {
         match Trajectory::parse(text, "bad.csv") {

@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
 use lamina_rt::now_ns;
 
+/// Latest script time a trajectory may hold, s: one day.
+pub const MAX_SCRIPT_S: f64 = 86_400.0;
+
 /// One row of a trajectory: where the handle is at a script time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrajectoryPoint {
@@ -82,6 +85,9 @@ impl Trajectory {
             } else {
                 0
             };
+            if !(0.0..=MAX_SCRIPT_S).contains(&v[0]) {
+                return Err(err(n, format!("t_s: {} is outside 0 to {MAX_SCRIPT_S} s (one day)", fields[0])));
+            }
             if let Some(last) = points.last()
                 && v[0] <= last.t_s
             {
