@@ -2,6 +2,7 @@
 //! pinned and at SCHED_FIFO when the system allows, and reports every frame-budget miss.
 
 use lamina_core::hand_tool::HandTool;
+use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, Scene};
 use lamina_core::solver::Simulation;
@@ -51,68 +52,14 @@ pub fn run(opts: &RunOptions) -> Result<(), String> {
 }
 
 fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
-    if let Some(s) = opts.seconds
-        && !(s.is_finite() && s > 0.0 && s <= 1e9)
-    {
-        let shown = if s.is_finite() && (1e-3..1e6).contains(&s.abs()) { format!("{s}") } else { format!("{s:e}") };
-        return Err(format!(
-            "--seconds {shown}: must be a positive number of seconds, at most 1e9 (omit it to run until Ctrl-C)"
-        ));
-    }
-    if !(1..=MAX_TICKS_CSV).contains(&opts.ticks_csv_last) {
-        return Err(format!("--ticks-csv-last {}: must be from 1 to {MAX_TICKS_CSV}", opts.ticks_csv_last));
-    }
-    let model = scene.build_model().map_err(|e| e.to_string())?;
+    check_options(opts)?;
     let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
-    // A haptics-driven tool is built into the simulation (its stiffness counted in the
-    // critical step) and parked until the haptics process speaks.
-    let (mut sim, mut hand_tool) = match scene.tool {
-        Some(settings) if matches!(settings.source, lamina_core::scene::ToolSource::Haptics { .. }) => {
-            let (sim, tool) = HandTool::simulation::<T>(&model, scene.solver.clone(), scene.effects.clone(), settings)
-                .map_err(|e| format!("{}: {e}", scene_name()))?;
-            (sim, Some(tool))
-        }
-        _ => (
-            Simulation::<T>::new(&model, scene.solver.clone(), scene.effects.clone())
-                .map_err(|e| format!("{}: {e}", scene_name()))?,
-            None,
-        ),
-    };
+    let model = scene.build_model().map_err(|e| e.to_string())?;
+    let (mut sim, mut hand_tool) =
+        build_simulation::<T>(scene, &model).map_err(|e| format!("{}: {e}", scene_name()))?;
     let _ = install_stop_handler(&STOP);
-    println!(
-        "scene '{}' ({}): {} nodes, {} springs, {} layers",
-        scene.name,
-        scene.path.as_ref().map_or("built-in default".into(), |p| p.display().to_string()),
-        model.nodes.len(),
-        model.springs.len(),
-        model.layers.len()
-    );
-    println!(
-        "solver: {} in {}, {} Hz, {} sub-step(s) per tick (critical step {:.3e} s, omega_max {:.3e} rad/s), {} thread(s), SIMD {}",
-        sim.params().integrator,
-        T::NAME,
-        scene.rate_hz,
-        sim.substeps(),
-        sim.critical_step(),
-        sim.stability().omega_max,
-        sim.params().threads,
-        sim.params().simd
-    );
-    println!("{}", integrator_reason(&sim, scene.rate_hz));
-    println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
-
-    let cpu = scene.realtime.cpu.or_else(|| available_cpus().last().copied());
-    let mut request = RealtimeRequest::new();
-    request.cpu = cpu;
-    if let Some(p) = scene.realtime.fifo_priority {
-        request = request.fifo_priority(p);
-    }
-    if scene.realtime.lock_memory {
-        request = request.lock_memory();
-    }
-    let setup = RealtimeSetup::apply(&request);
-    print!("{setup}");
-
+    print_setup(scene, &model, &sim);
+    apply_realtime_setup(scene);
     // Warm-up outside the timed loop: first touches of every buffer. A stop signal ends a
     // frame between two sub-steps, so a scene with long frames still stops within one
     // sub-step's work.
@@ -223,6 +170,93 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     let _ = lp.clock().now();
     drop(out);
     println!("\n{monitor}");
+    let finite = print_physics(&sim, publisher.as_ref());
+    write_outputs(opts, &monitor)?;
+    if !finite {
+        return Err(format!(
+            "{}: the state diverged to non-finite values with the guard off (no such frame was published)",
+            scene_name()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses run lengths and tick rings outside their bounds, naming the option and value.
+fn check_options(opts: &RunOptions) -> Result<(), String> {
+    if let Some(s) = opts.seconds
+        && !(s.is_finite() && s > 0.0 && s <= 1e9)
+    {
+        let shown = if s.is_finite() && (1e-3..1e6).contains(&s.abs()) { format!("{s}") } else { format!("{s:e}") };
+        return Err(format!(
+            "--seconds {shown}: must be a positive number of seconds, at most 1e9 (omit it to run until Ctrl-C)"
+        ));
+    }
+    if !(1..=MAX_TICKS_CSV).contains(&opts.ticks_csv_last) {
+        return Err(format!("--ticks-csv-last {}: must be from 1 to {MAX_TICKS_CSV}", opts.ticks_csv_last));
+    }
+    Ok(())
+}
+
+/// The simulation of `model` under the scene's solver and effects. A haptics-driven tool is
+/// built into it (its stiffness counted in the critical step) and parked until the haptics
+/// process speaks.
+fn build_simulation<T: Real>(
+    scene: &Scene,
+    model: &Model,
+) -> Result<(Simulation<T>, Option<HandTool>), lamina_core::solver::SimulationBuildError> {
+    match scene.tool {
+        Some(settings) if matches!(settings.source, lamina_core::scene::ToolSource::Haptics { .. }) => {
+            let (sim, tool) = HandTool::simulation::<T>(model, scene.solver.clone(), scene.effects.clone(), settings)?;
+            Ok((sim, Some(tool)))
+        }
+        _ => Ok((Simulation::<T>::new(model, scene.solver.clone(), scene.effects.clone())?, None)),
+    }
+}
+
+/// Prints the scene, the model's size, the solver and why, and the stages in the loop.
+fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
+    println!(
+        "scene '{}' ({}): {} nodes, {} springs, {} layers",
+        scene.name,
+        scene.path.as_ref().map_or("built-in default".into(), |p| p.display().to_string()),
+        model.nodes.len(),
+        model.springs.len(),
+        model.layers.len()
+    );
+    println!(
+        "solver: {} in {}, {} Hz, {} sub-step(s) per tick (critical step {:.3e} s, omega_max {:.3e} rad/s), {} thread(s), SIMD {}",
+        sim.params().integrator,
+        T::NAME,
+        scene.rate_hz,
+        sim.substeps(),
+        sim.critical_step(),
+        sim.stability().omega_max,
+        sim.params().threads,
+        sim.params().simd
+    );
+    println!("{}", integrator_reason(sim, scene.rate_hz));
+    println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
+}
+
+/// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what
+/// was granted and refused.
+fn apply_realtime_setup(scene: &Scene) {
+    let cpu = scene.realtime.cpu.or_else(|| available_cpus().last().copied());
+    let mut request = RealtimeRequest::new();
+    request.cpu = cpu;
+    if let Some(p) = scene.realtime.fifo_priority {
+        request = request.fifo_priority(p);
+    }
+    if scene.realtime.lock_memory {
+        request = request.lock_memory();
+    }
+    let setup = RealtimeSetup::apply(&request);
+    print!("{setup}");
+}
+
+/// Prints the per-frame stage costs and the physics summary (and the publishing and haptic
+/// link counts); returns whether the final state is finite.
+fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish::CorePublisher>) -> bool {
     let c = sim.counters();
     let frames = c.frames.max(1) as f64;
     println!(
@@ -259,7 +293,7 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
         g.frozen,
         finite
     );
-    if let Some(p) = &publisher {
+    if let Some(p) = publisher {
         println!(
             "published {} node frames ({} publish failures, {} withheld: state not finite)",
             p.sequence, p.failures, p.withheld
@@ -272,6 +306,11 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
             );
         }
     }
+    finite
+}
+
+/// Writes the --ticks-csv records and the --report JSON.
+fn write_outputs(opts: &RunOptions, monitor: &DeadlineMonitor) -> Result<(), String> {
     if let Some(path) = &opts.ticks_csv {
         let mut text = String::from("tick,wake_ns,lateness_ns,compute_ns,send_ns\n");
         for r in monitor.records().iter() {
@@ -283,12 +322,6 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     if let Some(path) = &opts.report {
         monitor.write_report(path).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());
-    }
-    if !finite {
-        return Err(format!(
-            "{}: the state diverged to non-finite values with the guard off (no such frame was published)",
-            scene_name()
-        ));
     }
     Ok(())
 }
