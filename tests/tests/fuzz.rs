@@ -13,8 +13,11 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
+use lamina_core::fit::TargetsLoadError;
 use lamina_core::io::ModelReadError;
+use lamina_core::scene::SceneLoadError;
 use lamina_core::solver::{IntegrationParameters, Simulation};
+use lamina_haptics::device::DeviceError;
 use lamina_mesh::{LoadOptions, MeshLoadError};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -227,10 +230,62 @@ fn check_model(path: &Path) -> Verdict {
     }
 }
 
-const TARGETS: [Target; 3] = [
+/// Scene files are loaded and checked value by value (the model they name is not built:
+/// a mutated grid size within the allowed range can take seconds to generate).
+fn check_scene(path: &Path) -> Verdict {
+    match lamina_core::scene::Scene::load(path) {
+        Ok(_) => Ok(true),
+        Err(e) => {
+            let line = match &e {
+                SceneLoadError::Syntax { line, .. } => Some(*line),
+                SceneLoadError::Value { line, .. } => *line,
+                _ => None,
+            };
+            names_file(&e.to_string(), path, line).map(|()| false)
+        }
+    }
+}
+
+fn check_trajectory(path: &Path) -> Verdict {
+    match lamina_haptics::device::Trajectory::load(path) {
+        Ok(t) => {
+            let end = t.duration_s();
+            assert!(end.is_finite() && end <= lamina_haptics::device::MAX_SCRIPT_S, "accepted a script of {end} s");
+            Ok(true)
+        }
+        Err(e) => {
+            let line = match &e {
+                DeviceError::Script { line, .. } if *line > 0 => Some(*line),
+                _ => None,
+            };
+            names_file(&e.to_string(), path, line).map(|()| false)
+        }
+    }
+}
+
+fn check_material(path: &Path) -> Verdict {
+    match lamina_core::fit::TissueTargets::load(path) {
+        Ok(t) => {
+            assert!(t.weights.iter().any(|&w| w > 0.0), "accepted all-zero weights");
+            Ok(true)
+        }
+        Err(e) => {
+            let line = match &e {
+                TargetsLoadError::Syntax { line, .. } if *line > 0 => Some(*line),
+                _ => None,
+            };
+            names_file(&e.to_string(), path, line).map(|()| false)
+        }
+    }
+}
+
+const TARGETS: [Target; 6] = [
     Target { name: "stl", ext: "stl", check: check_mesh },
     Target { name: "obj", ext: "obj", check: check_mesh },
     Target { name: "xml", ext: "xml", check: check_model },
+    Target { name: "scene", ext: "toml", check: check_scene },
+    Target { name: "trajectory", ext: "csv", check: check_trajectory },
+    Target { name: "material", ext: "toml", check: check_material },
 ];
 
 fn corpus(name: &str) -> Vec<Vec<u8>> {

@@ -226,9 +226,11 @@ fn find_runs(pairs: &[(u32, u32, u32)]) -> (Vec<RawRun>, Vec<u32>) {
         for piece in pieces {
             if let Some(group) = groups.last_mut() {
                 let last = *group.last().expect("groups are never empty");
-                let gap = list[piece.0].0 - list[last.1 - 1].0 - 1;
+                // Two springs on the same pair of nodes (a model may repeat one) give equal
+                // first nodes across the pieces: no gap to bridge.
+                let gap = list[piece.0].0.checked_sub(list[last.1 - 1].0 + 1);
                 let long = |p: (usize, usize)| p.1 - p.0 >= BRIDGE_MIN_PIECE;
-                if gap <= MAX_BRIDGED_GAP && long(last) && long(piece) {
+                if gap.is_some_and(|g| g <= MAX_BRIDGED_GAP) && long(last) && long(piece) {
                     group.push(piece);
                     continue;
                 }
@@ -439,6 +441,22 @@ mod tests {
         }
         s.push(0, n - 1, 1.0, SpringLaw::Linear { stiffness: 2.0 }, 0.0, 0);
         s
+    }
+
+    #[test]
+    fn layout_of_a_repeated_spring_keeps_both_works() {
+        // A chain of 20 springs with the spring 5-6 given twice (a model may repeat one):
+        // both copies are laid out, each spring once, no gap bridged between them.
+        let mut s = SpringSet::default();
+        for a in 0u32..20 {
+            s.push(a, a + 1, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
+        }
+        s.push(5, 6, 1.0, SpringLaw::Linear { stiffness: 3.0 }, 0.1, 0);
+        let layout = SpringLayout::<f64>::new(&s, 1);
+        assert_eq!(layout.null_springs(), 0);
+        let mut sources: Vec<u32> = layout.linear.source.iter().copied().filter(|&i| i != NULL_SPRING).collect();
+        sources.sort_unstable();
+        assert_eq!(sources, (0u32..21).collect::<Vec<_>>());
     }
 
     #[test]

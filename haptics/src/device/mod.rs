@@ -45,7 +45,7 @@ mod scripted;
 pub use error::DeviceError;
 pub use null::NullDevice;
 pub use plugin::{DEVICE_ABI_VERSION, PluginDevice};
-pub use scripted::{ScriptedDevice, Trajectory, TrajectoryPoint};
+pub use scripted::{MAX_SCRIPT_S, ScriptedDevice, Trajectory, TrajectoryPoint};
 
 /// What a device is and what it can safely do.
 #[derive(Debug, Clone, PartialEq)]
