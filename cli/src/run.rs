@@ -235,6 +235,14 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
         sim.params().simd
     );
     println!("{}", integrator_reason(sim, scene.rate_hz));
+    if let Some(needed) = sim.substeps_clamped() {
+        println!(
+            "warning: the critical step asks for {needed} sub-steps per tick; solver.max_substeps = {} holds it to {}, so each sub-step is {:.1}x the critical step and stability rests on the guard",
+            sim.params().max_substeps,
+            sim.substeps(),
+            needed as f64 / f64::from(sim.substeps())
+        );
+    }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 }
 

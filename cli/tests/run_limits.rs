@@ -156,3 +156,45 @@ fn diverged_state_with_guard_off_is_reported_and_never_published_fails() {
     assert!(withheld > 0, "{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn max_substeps_below_the_critical_step_prints_a_warning_works() {
+    // Symplectic Euler needs 14 sub-steps per 1 ms tick on the default limb; max_substeps = 2
+    // holds it to 2. The run says so instead of clamping in silence; max_substeps = 0 is refused.
+    let dir = std::env::temp_dir().join(format!("lamina_clamp_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let default = include_str!("../../config/scenes/default.toml");
+    let explicit = default.replace("integrator = \"implicit_factored\"", "integrator = \"symplectic_euler\"");
+    assert!(explicit.contains("symplectic_euler"), "default.toml's solver table changed");
+    let run = |max_substeps: u32| {
+        let scene =
+            explicit.replace("substeps = \"auto\"", &format!("substeps = \"auto\"\nmax_substeps = {max_substeps}"));
+        let path = dir.join(format!("clamped_{max_substeps}.toml"));
+        std::fs::write(&path, scene).unwrap();
+        Command::new(env!("CARGO_BIN_EXE_lamina"))
+            .args(["run", "--no-publish", "--quiet", "--seconds", "0.05", "--scene"])
+            .arg(&path)
+            .output()
+            .unwrap()
+    };
+    let out = run(2);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let warning = stdout
+        .lines()
+        .find(|l| l.starts_with("warning: the critical step asks for"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let needed: u32 =
+        warning.split_whitespace().nth(6).and_then(|w| w.parse().ok()).unwrap_or_else(|| panic!("{warning}"));
+    assert!(needed > 2, "{warning}");
+    assert!(warning.contains("max_substeps = 2 holds it to 2"), "{warning}");
+    let out = run(0);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("solver.max_substeps") && stderr.contains("at least 1"),
+        "{stderr}"
+    );
+    let out = run(1000);
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("warning: the critical step"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

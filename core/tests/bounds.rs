@@ -189,3 +189,19 @@ fn model_memory_estimate_covers_list_reservations_works() {
     let budget = (MODEL_FILE.memory_per_byte * MIN_ELEMENT_BYTES) as usize;
     assert!(spring <= budget && node <= budget && size_of::<[u32; 3]>() <= budget, "{spring} {node} {budget}");
 }
+
+#[test]
+fn zero_substep_and_iteration_limits_are_refused_fails() {
+    // A limit of zero would leave a frame with no step (or a solve with no iteration).
+    let (scene, model) = default_scene();
+    for params in [
+        IntegrationParameters { max_substeps: 0, ..scene.solver.clone() },
+        IntegrationParameters { cg_max_iterations: 0, ..scene.solver.clone() },
+    ] {
+        let e = build::<f32>(&scene, &model, params).err().expect("refused");
+        assert!(matches!(e, SimulationBuildError::BadParameter { expected: "at least 1", .. }), "{e}");
+    }
+    let params = IntegrationParameters { substeps: Substeps::Fixed(0), ..scene.solver.clone() };
+    let e = build::<f32>(&scene, &model, params).err().expect("refused");
+    assert!(matches!(e, SimulationBuildError::BadStep), "{e}");
+}

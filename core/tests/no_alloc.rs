@@ -1,6 +1,8 @@
 //! The step loop allocates nothing after warm-up: a counting global allocator watches 1000
 //! frames of every integrator, on one thread and on two, with every effect on, through
 //! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
+//! One busy thread per CPU spins beside the step throughout, so the solver's workers are
+//! preempted, park and wake as they do on a loaded machine.
 //!
 //! The allocator counts every thread of the process, so this file runs without libtest's
 //! harness (`harness = false` in `core/Cargo.toml`): the harness's own thread allocates when
@@ -49,7 +51,45 @@ fn main() {
     println!("ok");
 }
 
+/// Spins one thread per CPU until dropped; the threads allocate nothing while they spin.
+struct BusyThreads {
+    stop: std::sync::Arc<AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<u64>>,
+}
+
+impl BusyThreads {
+    fn start() -> BusyThreads {
+        let cpus = std::thread::available_parallelism().map_or(2, |n| n.get());
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let threads = (0..cpus)
+            .map(|_| {
+                let stop = stop.clone();
+                std::thread::spawn(move || {
+                    let mut spins = 0u64;
+                    while !stop.load(Ordering::Relaxed) {
+                        spins = spins.wrapping_add(1);
+                        std::hint::spin_loop();
+                    }
+                    spins
+                })
+            })
+            .collect();
+        BusyThreads { stop, threads }
+    }
+}
+
+impl Drop for BusyThreads {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        for thread in self.threads.drain(..) {
+            let spins = thread.join().expect("a busy thread panicked");
+            assert!(spins > 0, "a busy thread never ran");
+        }
+    }
+}
+
 fn step_loop_allocates_nothing_after_warm_up_works() {
+    let busy = BusyThreads::start();
     let scene = Scene::builtin_default();
     let model = scene.build_model().unwrap();
     let mut effects = scene.effects.clone();
@@ -95,4 +135,5 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
             assert!(sim.tool_feedback().in_contact, "{integrator}: the tool pressed the skin throughout");
         }
     }
+    drop(busy);
 }

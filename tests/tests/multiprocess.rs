@@ -1,12 +1,13 @@
 //! The core and its subscribers as real processes: subscribers killed with SIGKILL and
 //! restarted while the core runs, and a core killed and restarted under running subscribers.
-//! Timing bounds here detect stalls (a blocked send lasts seconds), not speed.
+//! The only clocks here are watchdogs against hangs (a blocked send lasted 3.5 s); what is
+//! asserted is counted: consecutive ticks, every frame received, frames fed to a restart.
 
 use lamina_tests::{kill9, read_json, realtime_prefix, unique_prefix, wait_with_watchdog, workspace_bin};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 fn core(prefix: &str, seconds: f64, ticks_csv: Option<&Path>) -> Command {
     let mut cmd = Command::new(workspace_bin("lamina"));
@@ -66,7 +67,6 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
     .expect("starting the haptics-like listener");
     std::thread::sleep(Duration::from_millis(700));
 
-    let mut kills = Vec::new();
     for round in 0..20 {
         let out = dir.join(format!("killed_{round}.json"));
         let mut child = listener(&prefix, "block", 30.0, &out, &["--print-every", "1"])
@@ -84,7 +84,6 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
         let line = rx.recv_timeout(Duration::from_secs(5)).unwrap_or_default();
         assert!(line.starts_with("received"), "round {round}: the restarted listener received nothing: {line:?}");
         std::thread::sleep(Duration::from_millis(50));
-        kills.push(Instant::now());
         kill9(&mut child);
     }
     // One more restart that exits cleanly and reports how soon it was fed.
@@ -93,8 +92,7 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
     wait_with_watchdog(&mut last, Duration::from_secs(10), "last listener");
     let report = read_json(&last_out);
     assert!(report["count"].as_u64().unwrap() > 100, "{report}");
-    let first_ns = report["first_frame_after_ns"].as_u64().expect("received a frame");
-    assert!(first_ns < 50_000_000, "a restarted subscriber is fed within a few ticks, took {first_ns} ns");
+    assert!(report["first_frame_after_ns"].as_u64().is_some(), "a restarted subscriber is fed: {report}");
 
     let status = wait_with_watchdog(&mut core_proc, Duration::from_secs(30), "lamina run");
     assert!(status.success(), "the core exited with {status}");
@@ -108,20 +106,15 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
     for w in rows.windows(2) {
         assert_eq!(w[1].tick, w[0].tick + 1, "tick records are consecutive");
     }
-    // A send held up by a subscriber lasts seconds (iceoryx2's RetryUntilDelivered stall was
-    // 3.5 s on this kind of machine); the hypervisor can preempt the core for up to ~10 ms
-    // inside any tick, send included. So: no send near a stall, and sends are short normally.
+    // A watchdog, not a speed bound: a send held up by a subscriber lasts seconds (iceoryx2's
+    // RetryUntilDelivered stall was 3.5 s on this kind of machine), far beyond any preemption.
     let worst = rows.iter().max_by_key(|r| r.send_ns).unwrap();
     assert!(
-        worst.send_ns < 100_000_000,
+        worst.send_ns < 1_000_000_000,
         "tick {} spent {} ns in send: a subscriber held the core up",
         worst.tick,
         worst.send_ns
     );
-    let mut sends: Vec<u64> = rows.iter().map(|r| r.send_ns).collect();
-    sends.sort_unstable();
-    let p99 = sends[sends.len() * 99 / 100];
-    assert!(p99 < 1_000_000, "send p99 {p99} ns: sends are not short in normal operation");
 
     // The haptics-like subscriber saw every sequence number.
     let h = read_json(&haptics_out);

@@ -34,6 +34,16 @@ pub(crate) fn check_params(params: &IntegrationParameters, effects: &Effects) ->
     cap("max_substeps", u64::from(params.max_substeps), u64::from(MAX_SUBSTEPS))?;
     cap("cg_max_iterations", u64::from(params.cg_max_iterations), u64::from(MAX_CG_ITERATIONS))?;
     cap("threads", params.threads as u64, MAX_THREADS as u64)?;
+    let at_least_one = |parameter: &'static str, value: u32| {
+        if value == 0 {
+            Err(SimulationBuildError::BadParameter { parameter, value: 0.0, expected: "at least 1" })
+        } else {
+            Ok(())
+        }
+    };
+    at_least_one("max_substeps", params.max_substeps)?;
+    at_least_one("cg_max_iterations", params.cg_max_iterations)?;
+    at_least_one("threads", params.threads as u32)?;
     if let Some(g) = effects.guard {
         cap("guard.retries", u64::from(g.retries), u64::from(MAX_GUARD_RETRIES))?;
     }
