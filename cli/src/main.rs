@@ -175,7 +175,8 @@ enum Command {
 enum StudyCommand {
     /// Error against cost per simulated second for every integrator over a range of steps.
     Accuracy {
-        /// Scene whose model is the third case; the built-in default when omitted.
+        /// Scene whose model is pressed and released in the third case; the built-in default
+        /// when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
         /// Output folder for the CSV and PNG plots.
@@ -184,8 +185,9 @@ enum StudyCommand {
         /// Fewer steps per integrator.
         #[arg(long)]
         quick: bool,
-        /// Simulated time of the model case, s.
-        #[arg(long, default_value_t = 0.05)]
+        /// Simulated time of the model case (press over the first half, release over the
+        /// second), s; rounded to whole 2 ms, 0.002 to 10.
+        #[arg(long, default_value_t = 0.1)]
         seconds: f64,
     },
     /// The hard cases: finite, bounded, no energy gain, guard activity.

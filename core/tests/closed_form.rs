@@ -191,9 +191,12 @@ fn integrators_converge_at_their_theoretical_order_works() {
     let gamma = c / (2.0 * m);
     let wd = (omega * omega - gamma * gamma).sqrt();
     let exact = a * (-gamma * t_end).exp() * ((wd * t_end).cos() + gamma / wd * (wd * t_end).sin());
-    for (integrator, dt0) in
-        [(IntegratorKind::SymplecticEuler, 2e-3f64), (IntegratorKind::ImplicitEuler, 2e-3), (IntegratorKind::Rk4, 2e-2)]
-    {
+    for (integrator, dt0) in [
+        (IntegratorKind::SymplecticEuler, 2e-3f64),
+        (IntegratorKind::VelocityVerlet, 2e-3),
+        (IntegratorKind::ImplicitEuler, 2e-3),
+        (IntegratorKind::Rk4, 2e-2),
+    ] {
         let errors: Vec<f64> = [1u32, 2, 4]
             .iter()
             .map(|&sub| {

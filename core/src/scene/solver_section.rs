@@ -27,7 +27,10 @@ pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<Integrat
     let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
     if let Some(name) = raw.integrator {
         solver.integrator = IntegratorKind::parse(&name).ok_or_else(|| {
-            FieldError::new("solver.integrator", "symplectic_euler, rk4, implicit_euler or implicit_factored")
+            FieldError::new(
+                "solver.integrator",
+                "symplectic_euler, velocity_verlet, rk4, implicit_euler or implicit_factored",
+            )
         })?;
     }
     match raw.substeps {
@@ -58,7 +61,10 @@ pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<Integrat
         }
     }
     if let Some(m) = raw.max_substeps {
-        solver.max_substeps = m.max(1);
+        if m == 0 {
+            return Err(FieldError::new("solver.max_substeps", "at least 1"));
+        }
+        solver.max_substeps = m;
     }
     if let Some(n) = raw.factored_iterations {
         if !(1..=64).contains(&n) {
@@ -70,7 +76,10 @@ pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<Integrat
         solver.factored_preconditioner = on;
     }
     if let Some(m) = raw.cg_max_iterations {
-        solver.cg_max_iterations = m.max(1);
+        if m == 0 {
+            return Err(FieldError::new("solver.cg_max_iterations", "at least 1"));
+        }
+        solver.cg_max_iterations = m;
     }
     Ok(solver)
 }
@@ -107,6 +116,8 @@ mod tests {
             ("cg_tolerance = nan\n", "solver.cg_tolerance"),
             ("factored_iterations = 0\n", "solver.factored_iterations"),
             ("rayleigh_beta = inf\n", "solver.rayleigh_beta"),
+            ("max_substeps = 0\n", "solver.max_substeps"),
+            ("cg_max_iterations = 0\n", "solver.cg_max_iterations"),
         ];
         for (body, field) in cases {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");

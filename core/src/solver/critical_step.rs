@@ -107,7 +107,9 @@ impl StabilityEstimate {
         let (w, g) = (self.omega_max, self.gamma_max);
         match integrator {
             IntegratorKind::ImplicitEuler | IntegratorKind::ImplicitFactored => f64::INFINITY,
-            IntegratorKind::SymplecticEuler => {
+            // Leapfrog's stability bound is symplectic Euler's: both are the same map on
+            // positions, shifted by half a step in the velocities.
+            IntegratorKind::SymplecticEuler | IntegratorKind::VelocityVerlet => {
                 if w == 0.0 {
                     if g == 0.0 { f64::INFINITY } else { 2.0 / g }
                 } else {

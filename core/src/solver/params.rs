@@ -9,6 +9,13 @@ pub enum IntegratorKind {
     /// Semi-implicit (symplectic) Euler: `v += h a(x, v)`, then `x += h v`. First order,
     /// one force evaluation per sub-step, bounded energy error.
     SymplecticEuler,
+    /// Velocity Verlet (kick-drift-kick leapfrog): `v += h/2 a`, `x += h v`, then
+    /// `v += h/2 a(x, ṽ)` with `ṽ = v₀ + h a₀` the predicted velocity its velocity-dependent
+    /// forces (dashpots, viscous damping) see. Second order, symplectic without damping, one
+    /// force evaluation per sub-step (the end-of-step acceleration is the next sub-step's
+    /// start; a frame after the state or the effects were changed from outside costs one more),
+    /// the same critical step as symplectic Euler.
+    VelocityVerlet,
     /// Classical fourth-order Runge–Kutta: four force evaluations per sub-step.
     Rk4,
     /// Linearly implicit backward Euler (one Newton step per sub-step), solved by
@@ -23,8 +30,9 @@ pub enum IntegratorKind {
 
 impl IntegratorKind {
     /// Every scheme, in table order.
-    pub const ALL: [IntegratorKind; 4] = [
+    pub const ALL: [IntegratorKind; 5] = [
         IntegratorKind::SymplecticEuler,
+        IntegratorKind::VelocityVerlet,
         IntegratorKind::Rk4,
         IntegratorKind::ImplicitEuler,
         IntegratorKind::ImplicitFactored,
@@ -34,6 +42,7 @@ impl IntegratorKind {
     pub fn name(self) -> &'static str {
         match self {
             IntegratorKind::SymplecticEuler => "symplectic_euler",
+            IntegratorKind::VelocityVerlet => "velocity_verlet",
             IntegratorKind::Rk4 => "rk4",
             IntegratorKind::ImplicitEuler => "implicit_euler",
             IntegratorKind::ImplicitFactored => "implicit_factored",
@@ -49,6 +58,7 @@ impl IntegratorKind {
     pub fn order(self) -> u32 {
         match self {
             IntegratorKind::SymplecticEuler | IntegratorKind::ImplicitEuler | IntegratorKind::ImplicitFactored => 1,
+            IntegratorKind::VelocityVerlet => 2,
             IntegratorKind::Rk4 => 4,
         }
     }

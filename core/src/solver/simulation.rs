@@ -49,6 +49,16 @@ struct Rk4Scratch<T> {
     sum_v: Vec3s<T>,
 }
 
+/// Velocity Verlet's carried acceleration.
+struct VerletScratch<T> {
+    /// Acceleration at the end of the last sub-step, m/s².
+    a: Vec3s<T>,
+    /// Predicted end-of-step velocity the end-of-step forces see, m/s.
+    v_pred: Vec3s<T>,
+    /// State time at which `a` holds; `None` once the state or the effects changed.
+    valid_at: Option<f64>,
+}
+
 /// A model being simulated in precision `T`.
 pub struct Simulation<T: Real> {
     params: IntegrationParameters,
@@ -56,6 +66,7 @@ pub struct Simulation<T: Real> {
     state: State<T>,
     snapshot: State<T>,
     rk4: Rk4Scratch<T>,
+    verlet: VerletScratch<T>,
     implicit: ImplicitSolver<T>,
     /// Built when the integrator is [`IntegratorKind::ImplicitFactored`].
     factored: Option<ImplicitFactored<T>>,
@@ -157,11 +168,13 @@ impl<T: Real> Simulation<T> {
         let z = || Vec3s::zeros(n);
         let rk4 = Rk4Scratch { x0: z(), v0: z(), xs: z(), vs: z(), a: z(), sum_x: z(), sum_v: z() };
         let implicit = ImplicitSolver::new(&dynamics);
+        let verlet = VerletScratch { a: z(), v_pred: z(), valid_at: None };
         let mut sim = Self {
             snapshot: state.clone(),
             state,
             dynamics,
             rk4,
+            verlet,
             implicit,
             factored: None,
             stability,
@@ -232,7 +245,16 @@ impl<T: Real> Simulation<T> {
 
     /// Current state, to set initial conditions or (tests) to corrupt it.
     pub fn state_mut(&mut self) -> &mut State<T> {
+        self.verlet.valid_at = None;
         &mut self.state
+    }
+
+    /// The equations of motion's right-hand side: accelerations at positions `x`, velocities
+    /// `v` and time `t` under the effects in the loop, m/s², into `a` (0 on held nodes).
+    /// For integrators outside the solver (the accuracy study's reference); the state is
+    /// not touched.
+    pub(crate) fn accelerations_into(&mut self, x: &Vec3s<T>, v: &Vec3s<T>, t: f64, a: &mut Vec3s<T>) {
+        self.dynamics.accelerations_into(x, v, t, a);
     }
 
     /// Solver settings.
@@ -243,6 +265,7 @@ impl<T: Real> Simulation<T> {
     /// The effects in the loop. Loads and handle targets may be changed between steps;
     /// the guard catches non-finite values put here.
     pub fn effects_mut(&mut self) -> &mut Effects {
+        self.verlet.valid_at = None;
         &mut self.dynamics.effects
     }
 
@@ -369,6 +392,7 @@ impl<T: Real> Simulation<T> {
             let mut n = self.substeps;
             for _ in 0..settings.retries {
                 n = n.saturating_mul(2);
+                self.verlet.valid_at = None;
                 self.state.copy_from(&self.snapshot);
                 if !self.advance(self.params.integrator, n, stop) {
                     return self.stopped_in_frame(&settings);
@@ -380,6 +404,7 @@ impl<T: Real> Simulation<T> {
             }
         }
         if recovery == Recovery::Frozen {
+            self.verlet.valid_at = None;
             self.state.copy_from(&self.snapshot);
             if !self.advance(IntegratorKind::ImplicitEuler, 1, stop) {
                 return self.stopped_in_frame(&settings);
@@ -392,6 +417,7 @@ impl<T: Real> Simulation<T> {
             Recovery::Substeps(_) => self.totals.by_substeps += 1,
             Recovery::Implicit => self.totals.by_implicit += 1,
             Recovery::Frozen => {
+                self.verlet.valid_at = None;
                 self.state.copy_from(&self.snapshot);
                 self.state.v.fill_zero();
                 self.state.time += self.params.dt;
@@ -409,6 +435,7 @@ impl<T: Real> Simulation<T> {
     /// A frame stopped part-way: keeps the state if it is good, else the last good one.
     fn stopped_in_frame(&mut self, settings: &super::effects::GuardSettings) -> bool {
         if inspect_state(&self.state, &self.dynamics.rest, settings).is_some() {
+            self.verlet.valid_at = None;
             self.state.copy_from(&self.snapshot);
         }
         false
@@ -424,6 +451,7 @@ impl<T: Real> Simulation<T> {
             }
             match integrator {
                 IntegratorKind::SymplecticEuler => self.dynamics.symplectic_substep(&mut self.state, h),
+                IntegratorKind::VelocityVerlet => self.verlet_substep(h, start_time + h * (k + 1) as f64),
                 IntegratorKind::Rk4 => self.rk4_substep(h),
                 IntegratorKind::ImplicitEuler => {
                     self.implicit.substep(&mut self.dynamics, &self.params, &mut self.state, h)
@@ -441,7 +469,41 @@ impl<T: Real> Simulation<T> {
             self.dynamics.move_bone(&mut self.state, now);
             self.dynamics.counters.substeps += 1;
         }
+        if integrator != IntegratorKind::VelocityVerlet {
+            self.verlet.valid_at = None;
+        }
         true
+    }
+
+    /// One velocity Verlet sub-step of `h` seconds ending at time `t1`.
+    fn verlet_substep(&mut self, h: f64, t1: f64) {
+        let s = &mut self.verlet;
+        if s.valid_at != Some(self.state.time) {
+            self.dynamics.accelerations_into(&self.state.x, &self.state.v, self.state.time, &mut s.a);
+        }
+        let (half, ht) = (T::from_f64(0.5 * h), T::from_f64(h));
+        // Kick half a step, drift a whole one.
+        for ((x, v), a) in self.state.x.slices_mut().into_iter().zip(self.state.v.slices_mut()).zip(s.a.slices()) {
+            for i in 0..x.len() {
+                v[i] += half * a[i];
+                x[i] += ht * v[i];
+            }
+        }
+        self.dynamics.move_bone(&mut self.state, t1);
+        // The velocity the end-of-step forces see: v₀ + h a₀, within O(h²) of the end velocity
+        // (half a kick short would leave damping first order).
+        for ((p, v), a) in s.v_pred.slices_mut().into_iter().zip(self.state.v.slices()).zip(s.a.slices()) {
+            for i in 0..p.len() {
+                p[i] = v[i] + half * a[i];
+            }
+        }
+        self.dynamics.accelerations_into(&self.state.x, &s.v_pred, t1, &mut s.a);
+        for (v, a) in self.state.v.slices_mut().into_iter().zip(s.a.slices()) {
+            for i in 0..v.len() {
+                v[i] += half * a[i];
+            }
+        }
+        s.valid_at = Some(t1);
     }
 
     fn rk4_substep(&mut self, h: f64) {
