@@ -13,8 +13,20 @@ fn root() -> PathBuf {
 /// Back-quoted tokens that look like repository paths: they start with a top-level folder
 /// of the workspace.
 fn named_paths(text: &str) -> Vec<String> {
-    let tops =
-        ["core/", "rt/", "bridge/", "cli/", "haptics/", "mesh/", "viewer/", "tests/", "config/", "docs/", "data/"];
+    let tops = [
+        "core/",
+        "rt/",
+        "bridge/",
+        "cli/",
+        "haptics/",
+        "mesh/",
+        "viewer/",
+        "tests/",
+        "config/",
+        "docs/",
+        "data/",
+        "examples/",
+    ];
     text.split('`')
         .skip(1)
         .step_by(2)
