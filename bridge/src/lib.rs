@@ -46,7 +46,7 @@ pub use publish::{
     FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher,
     NodesPublisherCreateError, StatsPublisher, ToolPublisher, TopologyPublishError, TopologyPublisher,
 };
-pub use services::{Message, PortCreateError, ServiceOpenError};
+pub use services::{Message, PortCreateError, PubSubSettings, ServiceOpenError, SettingMismatch};
 pub use subscribe::{
     FeedbackSubscriber, MessageSample, MessageSubscriber, NodesSample, NodesSubscriber, SampleReceiveError,
     StatsSubscriber, ToolSubscriber, TopologySample, TopologySubscriber,

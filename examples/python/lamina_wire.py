@@ -189,7 +189,7 @@ class StatsSummary(ctypes.Structure):
         return "LaminaStatsSummaryV1"
 
 
-# The byte sizes the Rust side has (checked by `cargo test -p lamina-bridge`, wire layout).
+# The byte sizes of the Rust types (bridge/tests/settings.rs checks the same figures).
 WIRE_SIZES = {
     Position: 12,
     NodesHeader: 40,

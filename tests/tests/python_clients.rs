@@ -2,7 +2,9 @@
 //! `lamina run`: the subscriber reads the topology and node frames as numpy arrays, the
 //! haptic driver presses the default scene's skin step by step and reads the contact force.
 //! Both print JSON that is checked here against the model (node count, rest bounding box) and
-//! against the same press computed offline with the physics library.
+//! against the same press computed offline with the physics library. A client that created a
+//! service first with the binding's default settings makes `lamina run` stop with an error
+//! naming the setting, the value found and the value Lamina needs.
 //!
 //! Needs `python3` with `pip install -r examples/python/requirements.txt`; without them the
 //! tests print SKIP, unless `LAMINA_REQUIRE_PYTHON_CLIENTS` is set (CI sets it), then they fail.
@@ -270,4 +272,73 @@ fn python_subscriber_and_haptic_driver_against_lamina_run_works() {
     eprintln!("deepest step: online {online:?} N, offline {offline:?} N, difference {err:.4} N");
     assert!(err <= 0.05 * mag + 0.005, "online {online:?} N vs offline {offline:?} N");
     assert!(core_out.contains(" 0 refused"), "every command the driver sent was sane: {core_out}");
+}
+
+#[test]
+fn python_client_with_default_settings_first_makes_lamina_run_name_the_setting_works() {
+    let test = "python_client_with_default_settings_first_makes_lamina_run_name_the_setting_works";
+    if !python_ready(test) {
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let prefix = unique_prefix("pyqos");
+    // A client creates `nodes` with Lamina's types and the binding's default settings, then
+    // holds it until its stdin closes.
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/create_with_defaults.py");
+    let mut holder = Command::new("python3")
+        .arg(&script)
+        .args(["--prefix", &prefix, "--services", "nodes"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting python3 create_with_defaults.py");
+    let mut line = String::new();
+    {
+        use std::io::BufRead;
+        let mut out = std::io::BufReader::new(holder.stdout.as_mut().unwrap());
+        out.read_line(&mut line).unwrap();
+    }
+    let created: Value = match serde_json::from_str(line.trim()) {
+        Ok(v) => v,
+        Err(e) => {
+            drop(holder.stdin.take());
+            let (_, _, err) = finish(holder, Duration::from_secs(30), "create_with_defaults.py");
+            panic!("create_with_defaults.py: not JSON ({e}): {line}\n{err}")
+        }
+    };
+    // The binding's defaults, as the script read them back from the service it created.
+    assert_eq!(created["nodes"]["subscriber_max_buffer_size"].as_u64(), Some(2), "{created}");
+    assert_eq!(created["nodes"]["history_size"].as_u64(), Some(0), "{created}");
+
+    let core = Command::new(workspace_bin("lamina"))
+        .args(["run", "--quiet", "--prefix", &prefix, "--seconds", "2"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting lamina run");
+    let (status, out, err) = finish(core, Duration::from_secs(120), "lamina run");
+    assert!(!status.success(), "lamina run must refuse the service: {out}\n{err}");
+    eprintln!("lamina run: {}", err.trim());
+    for expected in [
+        format!("service '{prefix}/nodes' exists"),
+        "subscriber_max_buffer_size 2 (Lamina needs at least 16)".to_string(),
+        "history_size 0 (Lamina needs at least 1)".to_string(),
+    ] {
+        assert!(err.contains(&expected), "the error names '{expected}': {err}");
+    }
+    assert!(!out.contains("publishing on"), "nothing was published: {out}");
+
+    // Once the client is gone, so is its service, and the core starts on the same prefix.
+    drop(holder.stdin.take());
+    let (status, _, holder_err) = finish(holder, Duration::from_secs(60), "create_with_defaults.py");
+    assert!(status.success(), "create_with_defaults.py: {status}\n{holder_err}");
+    let core = Command::new(workspace_bin("lamina"))
+        .args(["run", "--quiet", "--prefix", &prefix, "--seconds", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting lamina run");
+    let (status, out, err) = finish(core, Duration::from_secs(120), "lamina run");
+    assert!(status.success(), "lamina run starts once the client is gone: {out}\n{err}");
 }

@@ -1,0 +1,161 @@
+//! A service created first by someone else: Lamina uses it when its settings are at least
+//! Lamina's, and otherwise refuses it naming every setting with the value found and the value
+//! Lamina needs. Also pins the wire types' sizes, which clients in other languages declare
+//! by hand (examples/python/lamina_wire.py).
+
+use lamina_bridge::services::{NODES_BUFFER_SIZE, PubSubSettings};
+use lamina_bridge::wire::{NodesHeader, TopologyHeader, WireLayer};
+use lamina_bridge::{
+    Bridge, BridgeConfig, ContactFeedback, NodesPublisher, NodesSubscriber, PortCreateError, ServiceOpenError,
+    SettingMismatch, StatsSummary, ToolCommand, ToolSubscriber,
+};
+
+fn bridge(test: &str) -> Bridge {
+    let prefix = format!("t{}_{test}", std::process::id());
+    Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge opens")
+}
+
+/// The mismatches of an `Incompatible` error, or a panic naming what came instead.
+fn mismatches(error: &PortCreateError) -> (&str, &str, &[SettingMismatch]) {
+    match error {
+        PortCreateError::Service(ServiceOpenError::Incompatible { pattern, service, mismatches }) => {
+            (pattern, service, mismatches)
+        }
+        other => panic!("expected an incompatible service, got {other:?}"),
+    }
+}
+
+fn mismatch(setting: &'static str, found: &str, needed: &str) -> SettingMismatch {
+    SettingMismatch { setting, found: found.into(), needed: needed.into() }
+}
+
+#[test]
+fn nodes_created_with_default_settings_are_refused_naming_them_works() {
+    let b = bridge("defaults");
+    // What a client with iceoryx2's default settings creates: buffer 2, history 0.
+    let _held = b
+        .node()
+        .service_builder(&b.names().nodes)
+        .publish_subscribe::<[[f32; 3]]>()
+        .user_header::<NodesHeader>()
+        .create()
+        .unwrap();
+    let err = NodesPublisher::create(&b, 10).unwrap_err();
+    let lamina_bridge::NodesPublisherCreateError::Port(err) = err else { panic!("{err:?}") };
+    let (pattern, service, found) = mismatches(&err);
+    assert_eq!((pattern, service), ("publish-subscribe", b.names().nodes.as_str()));
+    assert_eq!(
+        found,
+        [
+            mismatch("subscriber_max_buffer_size", "2", &format!("at least {NODES_BUFFER_SIZE}")),
+            mismatch("history_size", "0", "at least 1"),
+        ]
+    );
+    let text = err.to_string();
+    assert!(
+        text.contains(&format!("service '{}' exists", b.names().nodes))
+            && text.contains("subscriber_max_buffer_size 2 (Lamina needs at least 16)")
+            && text.contains("history_size 0 (Lamina needs at least 1)"),
+        "{text}"
+    );
+    // Subscribers are refused the same way.
+    let err = NodesSubscriber::create(&b).unwrap_err();
+    assert_eq!(mismatches(&err).2.len(), 2, "{err}");
+}
+
+#[test]
+fn service_created_with_larger_settings_is_used_works() {
+    let b = bridge("larger");
+    let larger = PubSubSettings {
+        subscriber_max_buffer_size: 64,
+        history_size: 4,
+        subscriber_max_borrowed_samples: 8,
+        max_subscribers: 32,
+        max_publishers: 4,
+        max_nodes: 64,
+        safe_overflow: true,
+    };
+    let _held = b
+        .node()
+        .service_builder(&b.names().nodes)
+        .publish_subscribe::<[[f32; 3]]>()
+        .user_header::<NodesHeader>()
+        .enable_safe_overflow(larger.safe_overflow)
+        .history_size(larger.history_size)
+        .subscriber_max_buffer_size(larger.subscriber_max_buffer_size)
+        .subscriber_max_borrowed_samples(larger.subscriber_max_borrowed_samples)
+        .max_subscribers(larger.max_subscribers)
+        .max_publishers(larger.max_publishers)
+        .max_nodes(larger.max_nodes)
+        .create()
+        .unwrap();
+    let publisher = NodesPublisher::create(&b, 4).expect("a service with larger settings is used");
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+    publisher.publish_from_fn(7, 7, 0.007, 4, |i| [i as f32, 0.0, 0.0]).unwrap();
+    let frame = subscriber.try_receive().unwrap().expect("the frame arrives");
+    assert_eq!((frame.header().sequence, frame.positions()[3]), (7, [3.0, 0.0, 0.0]));
+}
+
+#[test]
+fn service_with_other_types_is_refused_naming_them_works() {
+    let b = bridge("types");
+    // Positions as a flat f32 slice and no header: the bytes would fit, the contract does not.
+    let _held = b.node().service_builder(&b.names().nodes).publish_subscribe::<[f32]>().create().unwrap();
+    let err = NodesSubscriber::create(&b).unwrap_err();
+    let (_, _, found) = mismatches(&err);
+    assert_eq!(
+        found,
+        [
+            mismatch(
+                "payload type",
+                "slice of 'f32' (size 4, alignment 4)",
+                "slice of '[f32; 3]' (size 12, alignment 4)"
+            ),
+            mismatch("user header type", "'()' (size 0, alignment 1)", "'LaminaNodesHeaderV1' (size 40, alignment 8)"),
+            mismatch("subscriber_max_buffer_size", "2", "at least 16"),
+            mismatch("history_size", "0", "at least 1"),
+        ]
+    );
+}
+
+#[test]
+fn tool_without_safe_overflow_is_refused_naming_it_works() {
+    let b = bridge("overflow");
+    let _held = b
+        .node()
+        .service_builder(&b.names().tool)
+        .publish_subscribe::<ToolCommand>()
+        .enable_safe_overflow(false)
+        .history_size(1)
+        .subscriber_max_buffer_size(4)
+        .create()
+        .unwrap();
+    let err = ToolSubscriber::create(&b).unwrap_err();
+    let (_, service, found) = mismatches(&err);
+    assert_eq!(service, b.names().tool.as_str());
+    assert_eq!(found, [mismatch("enable_safe_overflow", "false", "true")]);
+    assert!(err.to_string().contains("enable_safe_overflow false (Lamina needs true)"), "{err}");
+}
+
+#[test]
+fn wake_event_with_too_few_listeners_is_refused_naming_it_works() {
+    let b = bridge("event");
+    let _held = b.node().service_builder(&b.names().nodes).event().max_listeners(2).create().unwrap();
+    let err = NodesSubscriber::create(&b).unwrap_err();
+    let (pattern, service, found) = mismatches(&err);
+    assert_eq!((pattern, service), ("event", b.names().nodes.as_str()));
+    assert_eq!(found, [mismatch("max_listeners", "2", "at least 16")]);
+}
+
+#[test]
+fn wire_type_sizes_match_the_python_clients_works() {
+    // examples/python/lamina_wire.py declares the same sizes and checks them at import.
+    use core::mem::{align_of, size_of};
+    assert_eq!((size_of::<[f32; 3]>(), align_of::<[f32; 3]>()), (12, 4));
+    assert_eq!((size_of::<NodesHeader>(), align_of::<NodesHeader>()), (40, 8));
+    assert_eq!((size_of::<WireLayer>(), align_of::<WireLayer>()), (40, 4));
+    assert_eq!((size_of::<TopologyHeader>(), align_of::<TopologyHeader>()), (664, 8));
+    assert_eq!((size_of::<ToolCommand>(), align_of::<ToolCommand>()), (88, 8));
+    assert_eq!((size_of::<ContactFeedback>(), align_of::<ContactFeedback>()), (152, 8));
+    assert_eq!((size_of::<StatsSummary>(), align_of::<StatsSummary>()), (136, 8));
+}
