@@ -36,7 +36,11 @@ fn python_ready(test: &str) -> bool {
     if !ok {
         let why = match &probe {
             Err(e) => format!("python3 not found ({e})"),
-            Ok(o) => format!("python3 cannot import iceoryx2 and numpy: {}", String::from_utf8_lossy(&o.stderr).trim()),
+            Ok(o) => {
+                let err = String::from_utf8_lossy(&o.stderr);
+                let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("").trim().to_string();
+                format!("python3 cannot import iceoryx2 and numpy ({last})")
+            }
         };
         assert!(std::env::var_os(REQUIRE_ENV).is_none(), "{test}: {REQUIRE_ENV} is set but {why}");
         eprintln!(
