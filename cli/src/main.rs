@@ -219,7 +219,7 @@ enum BenchCommand {
         #[arg(long, default_value = "config/scenes/thigh.toml")]
         scenes: String,
         /// Comma-separated solvers.
-        #[arg(long, default_value = "symplectic_euler,rk4,implicit_euler,implicit_factored")]
+        #[arg(long, default_value = "symplectic_euler,velocity_verlet,rk4,implicit_euler,implicit_factored")]
         solvers: String,
         /// Comma-separated thread counts.
         #[arg(long, default_value = "1,2")]

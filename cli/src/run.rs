@@ -344,9 +344,10 @@ fn integrator_reason<T: Real>(sim: &Simulation<T>, rate_hz: u32) -> String {
         .max(1.0);
     match sim.params().integrator {
         IntegratorKind::ImplicitFactored => format!(
-            "integrator: implicit_factored, one implicit step per tick where symplectic Euler needs {explicit_steps:.0} \
-             sub-steps below its critical step; the cheapest per tick at the explicit press force \
-             (docs/solvers.md, lamina bench capacity)"
+            "integrator: implicit_factored, one implicit step of {} PCG iteration(s) per tick where symplectic Euler \
+             needs {explicit_steps:.0} sub-steps below its critical step; the cheapest per tick at the explicit press \
+             force, with more damping of fast motion (docs/solvers.md, lamina bench capacity, lamina study accuracy)",
+            sim.params().factored_iterations
         ),
         IntegratorKind::SymplecticEuler => format!(
             "integrator: symplectic Euler, {explicit_steps:.0} sub-step(s) per tick; the most accurate per unit of \

@@ -51,11 +51,15 @@ fn print_rows(title: &str, study: &AccuracyStudy) {
     let realtime: Vec<&AccuracyRow> = study.rows.iter().filter(|r| r.realtime_substeps.is_some()).collect();
     if !realtime.is_empty() {
         println!("as the 1 kHz loop runs them (1 ms frames, automatic sub-steps):");
-        println!("{:<17} {:>10} {:>11} {:>12} {:>13}", "integrator", "sub-steps", "step s", "error m", "cost s/s");
+        println!("{:<25} {:>10} {:>11} {:>12} {:>13}", "integrator", "sub-steps", "step s", "error m", "cost s/s");
         for r in realtime {
+            let name = match r.pcg_iterations {
+                Some(k) => format!("{} ({k} PCG)", r.integrator),
+                None => r.integrator.to_string(),
+            };
             println!(
-                "{:<17} {:>10} {:>11.3e} {:>12.3e} {:>13.3e}{}",
-                r.integrator,
+                "{:<25} {:>10} {:>11.3e} {:>12.3e} {:>13.3e}{}",
+                name,
                 r.realtime_substeps.unwrap_or(1),
                 r.step_s,
                 r.error_m,
@@ -68,13 +72,14 @@ fn print_rows(title: &str, study: &AccuracyStudy) {
 
 fn write_csv(path: &Path, rows: &[AccuracyRow]) -> Result<(), String> {
     let mut text = String::from(
-        "case,integrator,realtime_substeps,step_s,step_over_critical,error_m,cost_s_per_s,observed_order,at_floor,theoretical_order\n",
+        "case,integrator,pcg_iterations,realtime_substeps,step_s,step_over_critical,error_m,cost_s_per_s,observed_order,at_floor,theoretical_order\n",
     );
     for r in rows {
         text.push_str(&format!(
-            "{:?},{},{},{},{},{},{},{},{},{}\n",
+            "{:?},{},{},{},{},{},{},{},{},{},{}\n",
             r.case,
             r.integrator,
+            r.pcg_iterations.map_or(String::new(), |n| n.to_string()),
             r.realtime_substeps.map_or(String::new(), |n| n.to_string()),
             r.step_s,
             r.step_over_critical,
@@ -152,8 +157,11 @@ pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<()
         .collect();
     if let Some(best) = within.iter().min_by(|a, b| a.error_m.total_cmp(&b.error_m)) {
         println!(
-            "\nwithin the 1 kHz budget ({REALTIME_BUDGET_S_PER_S} s of wall time per simulated second, f32, 1 ms frames): most accurate is {} (error {:.3e} m, cost {:.3e} s/s)",
-            best.integrator, best.error_m, best.cost_s_per_s
+            "\nwithin the 1 kHz budget ({REALTIME_BUDGET_S_PER_S} s of wall time per simulated second, f32, 1 ms frames): most accurate is {}{} (error {:.3e} m, cost {:.3e} s/s)",
+            best.integrator,
+            best.pcg_iterations.map_or(String::new(), |k| format!(" with {k} PCG iterations")),
+            best.error_m,
+            best.cost_s_per_s
         );
     } else {
         println!(

@@ -41,6 +41,8 @@ pub struct AccuracyRow {
     /// `Some(n)` for a row run as the real-time loop runs: 1 ms frames of `n` automatic
     /// sub-steps; `None` for a fixed step.
     pub realtime_substeps: Option<u32>,
+    /// Preconditioned CG iterations per step of `implicit_factored` (`None` for the others).
+    pub pcg_iterations: Option<u32>,
     /// Step over the symplectic-Euler critical step.
     pub step_over_critical: f64,
     /// Largest node position error, m (NaN when the run blew up).
@@ -167,11 +169,13 @@ fn run<T: Real>(
     substeps: Substeps,
     t_end: f64,
     press: Option<Press>,
+    pcg_iterations: u32,
 ) -> (Vec<[f64; 3]>, f64, u32) {
     let params = IntegrationParameters {
         dt,
         integrator,
         substeps,
+        factored_iterations: pcg_iterations,
         cg_tolerance: if T::NAME == "f64" { 1e-10 } else { 1e-6 },
         cg_max_iterations: 1000,
         ..IntegrationParameters::default()
@@ -286,10 +290,10 @@ pub fn accuracy_study(
             if previous.is_some_and(|(h0, _)| h0 == h) {
                 continue;
             }
-            let (x, cost64, _) = run::<f64>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press);
+            let (x, cost64, _) = run::<f64>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press, 1);
             let error = max_distance(&x, &reference);
             let cost = if case == AccuracyCase::Model {
-                run::<f32>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press).1
+                run::<f32>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press, 1).1
             } else {
                 cost64
             };
@@ -303,6 +307,7 @@ pub fn accuracy_study(
                 integrator: integrator.name(),
                 step_s: h,
                 realtime_substeps: None,
+                pcg_iterations: (integrator == IntegratorKind::ImplicitFactored).then_some(1),
                 step_over_critical: h / critical,
                 error_m: error,
                 cost_s_per_s: cost,
@@ -314,17 +319,24 @@ pub fn accuracy_study(
         }
     }
     if case == AccuracyCase::Model {
-        // As the real-time loop runs them: 1 ms frames, sub-steps as the critical step asks.
-        for integrator in IntegratorKind::ALL {
-            let (x, _, substeps) = run::<f64>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press);
+        // As the real-time loop runs them: 1 ms frames, sub-steps as the critical step asks;
+        // the real-time implicit step with 1 to 8 PCG iterations.
+        let configurations = IntegratorKind::ALL.into_iter().flat_map(|k| {
+            let iterations: &[u32] = if k == IntegratorKind::ImplicitFactored { &[1, 2, 4, 8] } else { &[1] };
+            iterations.iter().map(move |&i| (k, i))
+        });
+        for (integrator, iterations) in configurations {
+            let (x, _, substeps) =
+                run::<f64>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press, iterations);
             let error = max_distance(&x, &reference);
-            let cost = run::<f32>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press).1;
+            let cost = run::<f32>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press, iterations).1;
             let h = 1e-3 / f64::from(substeps);
             rows.push(AccuracyRow {
                 case,
                 integrator: integrator.name(),
                 step_s: h,
                 realtime_substeps: Some(substeps),
+                pcg_iterations: (integrator == IntegratorKind::ImplicitFactored).then_some(iterations),
                 step_over_critical: h / critical,
                 error_m: error,
                 cost_s_per_s: cost,
