@@ -218,6 +218,6 @@ pub struct StatsSummary {
     pub compute: Percentiles,
     /// Period between consecutive tick starts, ns.
     pub period: Percentiles,
-    /// Tick number of the slowest tick seen (largest compute time).
+    /// Tick number of the worst tick seen: the largest lateness + compute time (0 before any).
     pub worst_tick: u64,
 }

@@ -1,0 +1,305 @@
+#!/usr/bin/env python3
+"""A Lamina client in Python, written from docs/wire-protocol.md alone.
+
+Needs the iceoryx2 package 0.10.0 from PyPI (`pip install iceoryx2==0.10.0`), the same
+iceoryx2 release as Lamina. Against a running core (`lamina run --prefix lamina`):
+
+    python3 lamina_client.py --prefix lamina --seconds 3           # topology, frames, stats
+    python3 lamina_client.py --prefix lamina --seconds 3 --press   # also drives the tool
+
+With --press it also sends tool commands (the scene must have a haptics tool, as the default
+scene does): the tool starts at --origin (the scene's effects.tool.device_origin), goes 8 mm
+down along -y over one second, holds, and the client prints the contact force it gets back.
+"""
+
+import argparse
+import ctypes
+import os
+import sys
+import time
+
+import iceoryx2 as iox2
+
+
+# --- The wire types (docs/wire-protocol.md, "Byte layout") -------------------------------
+class Vec3f(ctypes.Structure):
+    """One node position, m: the element of the `nodes` payload slice."""
+
+    _fields_ = [("x", ctypes.c_float), ("y", ctypes.c_float), ("z", ctypes.c_float)]
+
+    @staticmethod
+    def type_name():
+        return "[f32; 3]"
+
+
+class NodesHeader(ctypes.Structure):
+    _fields_ = [
+        ("sequence", ctypes.c_uint64),
+        ("tick", ctypes.c_uint64),
+        ("sim_time_s", ctypes.c_double),
+        ("publish_time_ns", ctypes.c_uint64),
+        ("node_count", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaNodesHeaderV1"
+
+
+class WireLayer(ctypes.Structure):
+    _fields_ = [
+        ("name", ctypes.c_uint8 * 32),
+        ("first_node", ctypes.c_uint32),
+        ("node_count", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaWireLayerV1"
+
+
+class TopologyHeader(ctypes.Structure):
+    _fields_ = [
+        ("revision", ctypes.c_uint64),
+        ("node_count", ctypes.c_uint32),
+        ("triangle_count", ctypes.c_uint32),
+        ("tex_coord_count", ctypes.c_uint32),
+        ("layer_count", ctypes.c_uint32),
+        ("layers", WireLayer * 16),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaTopologyHeaderV1"
+
+
+class ToolCommand(ctypes.Structure):
+    _fields_ = [
+        ("sequence", ctypes.c_uint64),
+        ("time_ns", ctypes.c_uint64),
+        ("position", ctypes.c_double * 3),
+        ("orientation", ctypes.c_double * 4),
+        ("buttons", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("tool_radius_m", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaToolCommandV1"
+
+
+class ContactFeedback(ctypes.Structure):
+    _fields_ = [
+        ("sequence", ctypes.c_uint64),
+        ("tick", ctypes.c_uint64),
+        ("publish_time_ns", ctypes.c_uint64),
+        ("in_contact", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("force", ctypes.c_double * 3),
+        ("stiffness", (ctypes.c_double * 3) * 3),
+        ("x_ref", ctypes.c_double * 3),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaContactFeedbackV1"
+
+
+class Percentiles(ctypes.Structure):
+    _fields_ = [
+        ("p50_ns", ctypes.c_uint64),
+        ("p99_ns", ctypes.c_uint64),
+        ("p999_ns", ctypes.c_uint64),
+        ("max_ns", ctypes.c_uint64),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaPercentilesV1"
+
+
+class StatsSummary(ctypes.Structure):
+    _fields_ = [
+        ("sequence", ctypes.c_uint64),
+        ("publish_time_ns", ctypes.c_uint64),
+        ("ticks", ctypes.c_uint64),
+        ("misses", ctypes.c_uint64),
+        ("lateness", Percentiles),
+        ("compute", Percentiles),
+        ("period", Percentiles),
+        ("worst_tick", ctypes.c_uint64),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaStatsSummaryV1"
+
+
+# --- Quality of service (docs/wire-protocol.md, "Quality of service") --------------------
+# Set in full, so that this client may also be the one that creates a service.
+BUFFER = {"nodes": 16, "topology": 1, "tool": 4, "feedback": 8, "stats": 4}
+
+
+def pubsub(node, name, payload, header=None):
+    builder = node.service_builder(iox2.ServiceName.new(name)).publish_subscribe(payload)
+    if header is not None:
+        builder = builder.user_header(header)
+    return (
+        builder.enable_safe_overflow(True)
+        .history_size(1)
+        .subscriber_max_buffer_size(BUFFER[name.rsplit("/", 1)[1]])
+        .subscriber_max_borrowed_samples(2)
+        .max_subscribers(8)
+        .max_publishers(2)
+        .max_nodes(20)
+        .open_or_create()
+    )
+
+
+def event(node, name):
+    return (
+        node.service_builder(iox2.ServiceName.new(name))
+        .event()
+        .max_listeners(16)
+        .max_notifiers(4)
+        .max_nodes(20)
+        .open_or_create()
+    )
+
+
+def lamina_node():
+    """An iceoryx2 node in this user's Lamina domain (docs/wire-protocol.md, "Domain")."""
+    uid = os.geteuid()
+    root = os.environ.get("LAMINA_IPC_DIR") or os.path.join(os.environ.get("TMPDIR") or "/tmp", f"lamina-{uid}")
+    config = iox2.config.default()
+    config.global_cfg.root_path = iox2.Path.new(root.rstrip("/") + "/")
+    config.global_cfg.prefix = iox2.FileName.new(f"iox2_lamina_u{uid}_")
+    return iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
+
+
+def now_ns():
+    """The wire's clock: CLOCK_MONOTONIC, ns."""
+    return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--prefix", default="lamina")
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--press", action="store_true", help="drive the tool: press 8 mm along -y and hold")
+    ap.add_argument("--origin", default="0,0.062,0.12", help="tool start, m, x,y,z (the scene's device_origin)")
+    args = ap.parse_args()
+    p = args.prefix
+    iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
+    node = lamina_node()
+
+    topology = pubsub(node, f"{p}/topology", iox2.Slice[ctypes.c_uint32], TopologyHeader)
+    nodes = pubsub(node, f"{p}/nodes", iox2.Slice[Vec3f], NodesHeader)
+    stats = pubsub(node, f"{p}/stats", StatsSummary)
+    topology_sub = topology.subscriber_builder().create()
+    nodes_sub = nodes.subscriber_builder().create()
+    stats_sub = stats.subscriber_builder().create()
+    nodes_listener = event(node, f"{p}/nodes").listener_builder().create()
+    tool_pub = feedback_sub = None
+    if args.press:
+        tool_pub = pubsub(node, f"{p}/tool", ToolCommand).publisher_builder().create()
+        feedback_sub = pubsub(node, f"{p}/feedback", ContactFeedback).subscriber_builder().create()
+    origin = [float(v) for v in args.origin.split(",")]
+
+    first_tick = last_seq = last_frame = None
+    frames, gaps, stats_seen, commands, feedbacks = 0, 0, 0, 0, 0
+    last_feedback = None
+    node_count = None
+    start = now_ns()
+    end = start + int(args.seconds * 1e9)
+    while now_ns() < end:
+        # Topology: the history sample arrives within a second of subscribing.
+        sample = topology_sub.receive()
+        if sample is not None:
+            h = sample.user_header().contents
+            words = sample.payload()
+            count = sample.header.number_of_elements
+            assert count == 3 * h.triangle_count + 2 * h.tex_coord_count, "payload length"
+            layers = [bytes(h.layers[i].name).rstrip(b"\0").decode() for i in range(h.layer_count)]
+            node_count = h.node_count
+            print(
+                f"topology revision {h.revision}: {h.node_count} nodes, {h.triangle_count} triangles, "
+                f"{h.tex_coord_count} texture coordinates, layers {layers}"
+            )
+        # Node frames: wait on the `nodes` event (the core notifies after every frame).
+        nodes_listener.timed_wait(iox2.Duration.from_millis(5))
+        while True:
+            sample = nodes_sub.receive()
+            if sample is None:
+                break
+            h = sample.user_header().contents
+            positions = sample.payload()
+            # iceoryx2's Python package 0.10.0 gives a slice's length in bytes (Slice.len(),
+            # iceoryx2 issue #1533); the sample header has the element count.
+            assert sample.header.number_of_elements == h.node_count, "slice length equals node_count"
+            if first_tick is None:
+                first_tick = (h.tick, h.sim_time_s, h.sequence)
+                p0 = positions[0]
+                print(
+                    f"first frame: sequence {h.sequence}, tick {h.tick}, sim_time_s {h.sim_time_s:.6f}, "
+                    f"{h.node_count} nodes, node 0 at ({p0.x:.4f}, {p0.y:.4f}, {p0.z:.4f}) m, "
+                    f"latency {(now_ns() - h.publish_time_ns) / 1e3:.0f} us"
+                )
+            if last_seq is not None and h.sequence != last_seq + 1:
+                gaps += 1
+            last_seq = h.sequence
+            last_frame = (h.sequence, h.tick, h.sim_time_s)
+            frames += 1
+        sample = stats_sub.receive()
+        if sample is not None:
+            s = sample.payload().contents
+            stats_seen += 1
+            print(
+                f"stats {s.sequence}: ticks {s.ticks}, misses {s.misses}, compute p50 {s.compute.p50_ns / 1e3:.1f} us "
+                f"p99 {s.compute.p99_ns / 1e3:.1f} us, period p99 {s.period.p99_ns / 1e3:.1f} us"
+            )
+        if tool_pub is not None:
+            t = (now_ns() - start) / 1e9
+            depth = min(t, 1.0) * 0.008
+            cmd = ToolCommand(
+                sequence=commands,
+                time_ns=now_ns(),
+                position=(ctypes.c_double * 3)(origin[0], origin[1] - depth, origin[2]),
+                orientation=(ctypes.c_double * 4)(0.0, 0.0, 0.0, 1.0),
+                buttons=0,
+                reserved=0,
+                tool_radius_m=0.0,
+            )
+            tool_pub.send_copy(cmd)
+            commands += 1
+            while True:
+                sample = feedback_sub.receive()
+                if sample is None:
+                    break
+                f = sample.payload().contents
+                feedbacks += 1
+                last_feedback = (f.tick, f.in_contact, list(f.force), [list(r) for r in f.stiffness], list(f.x_ref))
+    if first_tick is None:
+        print("no node frames: is `lamina run --prefix %s` running?" % p, file=sys.stderr)
+        return 1
+    seq, tick, sim = last_frame
+    print(
+        f"{frames} frames, last: sequence {seq}, tick {tick}, sim_time_s {sim:.6f}; "
+        f"sequence gaps {gaps}; {stats_seen} stats messages; topology node count {node_count}"
+    )
+    if tool_pub is not None:
+        print(f"{commands} tool commands sent, {feedbacks} feedback messages received")
+        if last_feedback is not None:
+            tick, contact, force, k, x_ref = last_feedback
+            print(
+                f"last feedback: tick {tick}, in_contact {contact}, force ({force[0]:.4f}, {force[1]:.4f}, "
+                f"{force[2]:.4f}) N at x_ref ({x_ref[0]:.4f}, {x_ref[1]:.4f}, {x_ref[2]:.4f}) m, "
+                f"stiffness yy {k[1][1]:.1f} N/m"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
