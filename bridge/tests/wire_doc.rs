@@ -315,7 +315,7 @@ fn documented_service_names_and_domain_match_works() {
     let text = page();
     let services = keyed_table(&text, "publisher", "service");
     let names = ServiceNames::new("P").unwrap();
-    let mut code: Vec<&str> = vec![&names.topology, &names.nodes, &names.stats, &names.tool, &names.feedback]
+    let mut code: Vec<&str> = [&names.topology, &names.nodes, &names.stats, &names.tool, &names.feedback]
         .iter()
         .map(|n| n.as_str())
         .collect();
