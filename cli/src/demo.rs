@@ -102,6 +102,9 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
                 .arg(&haptics_report)
                 .arg("--trace-csv")
                 .arg(out.join("haptics_trace.csv"));
+            if let Some(s) = scene {
+                h.arg("--scene").arg(s);
+            }
             Some(
                 h.stdout(Stdio::from(file(&haptics_log)?))
                     .stderr(Stdio::from(file(&out.join("haptics_events.log"))?))

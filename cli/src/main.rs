@@ -12,6 +12,7 @@ mod plot;
 mod profile;
 mod publish;
 mod run;
+mod run_report;
 mod study;
 mod yardstick_cmd;
 

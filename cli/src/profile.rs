@@ -239,7 +239,11 @@ fn profile_haptics(
     let trajectory = out.join("haptics_trajectory.csv");
     std::fs::write(&trajectory, super::demo::DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
     let report = out.join("haptics_report.json");
-    let h = Command::new(sibling("lamina-haptics")?)
+    let mut h = Command::new(sibling("lamina-haptics")?);
+    if let Some(s) = scene {
+        h.arg("--scene").arg(s);
+    }
+    let h = h
         .args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
         .arg("--device")
         .arg(format!("scripted:{}", trajectory.display()))

@@ -44,19 +44,21 @@ pub fn load_scene(path: &Option<PathBuf>) -> Result<Scene, String> {
 }
 
 pub fn run(opts: &RunOptions) -> Result<(), String> {
-    let scene = load_scene(&opts.scene)?;
-    match scene.precision {
-        Precision::F32 => run_scene::<f32>(&scene, opts),
-        Precision::F64 => run_scene::<f64>(&scene, opts),
+    let loaded = super::run_report::load_scene_hashed(opts.scene.as_deref())?;
+    match loaded.scene.precision {
+        Precision::F32 => run_scene::<f32>(&loaded, opts),
+        Precision::F64 => run_scene::<f64>(&loaded, opts),
     }
 }
 
-fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
+fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions) -> Result<(), String> {
     check_options(opts)?;
+    let scene = &loaded.scene;
     let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
     let model = scene.build_model().map_err(|e| e.to_string())?;
     let (mut sim, mut hand_tool) =
         build_simulation::<T>(scene, &model).map_err(|e| format!("{}: {e}", scene_name()))?;
+    let context = super::run_report::RunContext::start(loaded, &model, &sim, opts.prefix.as_deref());
     let _ = install_stop_handler(&STOP);
     print_setup(scene, &model, &sim);
     apply_realtime_setup(scene);
@@ -171,7 +173,7 @@ fn run_scene<T: Real>(scene: &Scene, opts: &RunOptions) -> Result<(), String> {
     drop(out);
     println!("\n{monitor}");
     let finite = print_physics(&sim, publisher.as_ref());
-    write_outputs(opts, &monitor)?;
+    write_outputs(opts, &monitor, &context)?;
     if !finite {
         return Err(format!(
             "{}: the state diverged to non-finite values with the guard off (no such frame was published)",
@@ -317,8 +319,13 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
     finite
 }
 
-/// Writes the --ticks-csv records and the --report JSON.
-fn write_outputs(opts: &RunOptions, monitor: &DeadlineMonitor) -> Result<(), String> {
+/// Writes the --ticks-csv records and the --report JSON (the monitor's summary with the run's
+/// context, `docs/reports.md`).
+fn write_outputs(
+    opts: &RunOptions,
+    monitor: &DeadlineMonitor,
+    context: &super::run_report::RunContext,
+) -> Result<(), String> {
     if let Some(path) = &opts.ticks_csv {
         let mut text = String::from("tick,wake_ns,lateness_ns,compute_ns,send_ns\n");
         for r in monitor.records().iter() {
@@ -328,7 +335,9 @@ fn write_outputs(opts: &RunOptions, monitor: &DeadlineMonitor) -> Result<(), Str
         println!("per-tick records written to {}", path.display());
     }
     if let Some(path) = &opts.report {
-        monitor.write_report(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let report = context.report(&monitor.report_json());
+        let text = serde_json::to_string_pretty(&report).unwrap_or_default() + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());
     }
     Ok(())

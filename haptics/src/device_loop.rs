@@ -137,6 +137,9 @@ pub fn run_device_loop(
     }
     let mut renderer = ForceRenderer::new(limits, cfg.mapping);
     let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(lp.period_ns()));
+    // The tool command's publish is the tick's send time (the report's `loop.send`).
+    let probe = monitor.send_probe();
+    let send_clock = MonotonicClock::new();
     let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3).expect("valid bounds");
     let mut trace: Vec<TraceRow> = Vec::with_capacity(cfg.trace_capacity);
     let (mut commands_sent, mut port_failures, mut max_force, mut core_tick) = (0u64, 0u64, 0.0f64, 0u64);
@@ -167,7 +170,7 @@ pub fn run_device_loop(
                 reserved: 0,
                 tool_radius_m: cfg.tool_radius_m,
             };
-            match tool.publish_polled(&cmd) {
+            match probe.measure(&send_clock, || tool.publish_polled(&cmd)) {
                 Ok(_) => commands_sent += 1,
                 Err(_) => port_failures += 1,
             }

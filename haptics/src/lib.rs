@@ -25,6 +25,7 @@ pub mod device;
 mod device_loop;
 mod mapping;
 mod renderer;
+pub mod run_context;
 mod safety;
 
 pub use device_loop::{HapticsConfig, HapticsReport, HapticsStartError, TraceRow, run_device_loop};

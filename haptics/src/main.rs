@@ -12,6 +12,7 @@ use std::sync::atomic::AtomicBool;
 use clap::Parser;
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_haptics::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
+use lamina_haptics::run_context::{ModelSeen, RunContext, SceneFile, TopologyWatch};
 use lamina_haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
 use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
 
@@ -51,6 +52,9 @@ struct Args {
     /// Write the JSON report here.
     #[arg(long)]
     report: Option<PathBuf>,
+    /// The scene file the core runs: its name and SHA-256 go into the report.
+    #[arg(long)]
+    scene: Option<PathBuf>,
     /// Write every tick (time, handle position, force, gain, contact) as CSV here: the first
     /// ten minutes of the run at most (2.4 million rows at 4 kHz), kept in memory allocated
     /// before the loop.
@@ -182,13 +186,30 @@ fn print_report(r: &HapticsReport, rate_hz: u32, device: &str) {
     println!("  tool commands sent {}, port failures {}", r.commands_sent, r.port_failures);
 }
 
-fn report_json(r: &HapticsReport, rate_hz: u32, device: &str) -> serde_json::Value {
+/// What the report says about the run besides its measurements.
+struct ReportContext<'a> {
+    run: &'a RunContext,
+    prefix: &'a str,
+    device: &'a str,
+    rate_hz: u32,
+    model: Option<ModelSeen>,
+}
+
+fn report_json(r: &HapticsReport, c: &ReportContext) -> serde_json::Value {
     let l = &r.core_to_device_ns;
     let q = |p: f64| if l.is_empty() { 0 } else { l.value_at_quantile(p) };
-    serde_json::json!({
-        "device": device,
-        "rate_hz": rate_hz,
-        "loop": serde_json::from_str::<serde_json::Value>(&r.monitor.report_json()).unwrap_or_default(),
+    let mut lp = serde_json::from_str::<serde_json::Value>(&r.monitor.report_json()).unwrap_or_default();
+    // The device loop skips missed periods (OverrunPolicy::Skip): it never catches up.
+    if let Some(m) = lp.as_object_mut() {
+        m.remove("caught_up_ticks");
+    }
+    let mut report = c.run.json();
+    let fields = serde_json::json!({
+        "prefix": c.prefix,
+        "model": c.model.map(|m| serde_json::json!({ "nodes": m.nodes, "surface_triangles": m.surface_triangles })),
+        "device": c.device,
+        "rate_hz": c.rate_hz,
+        "loop": lp,
         "core_to_device_latency": {
             "count": l.len(), "p50_ns": q(0.5), "p99_ns": q(0.99), "p999_ns": q(0.999),
             "max_ns": if l.is_empty() { 0 } else { l.max() },
@@ -204,7 +225,11 @@ fn report_json(r: &HapticsReport, rate_hz: u32, device: &str) -> serde_json::Val
         "commands_sent": r.commands_sent,
         "port_failures": r.port_failures,
         "device_error": r.device_error.as_ref().map(|e| e.to_string()),
-    })
+    });
+    if let (Some(report), serde_json::Value::Object(fields)) = (report.as_object_mut(), fields) {
+        report.extend(fields);
+    }
+    report
 }
 
 fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
@@ -233,6 +258,8 @@ fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
 fn run(args: &Args) -> Result<bool, String> {
     let (mut device, script_s) =
         open_device(&args.device, &args.device_args).map_err(|e| format!("haptic device '{}': {e}", args.device))?;
+    let scene = args.scene.as_deref().map(SceneFile::read).transpose()?;
+    let context = RunContext::start(scene);
     let seconds = args.seconds.or(script_s.map(|s| s + 0.2));
     if let Some(s) = seconds
         && !(s.is_finite() && s > 0.0)
@@ -278,12 +305,16 @@ fn run(args: &Args) -> Result<bool, String> {
         Some(s) => RunLimit::duration_ns((s * 1e9) as u64).and_stop_flag(&STOP),
         None => RunLimit::until_stopped(&STOP),
     };
-    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx)).map_err(|e| e.to_string())?;
+    let watch = TopologyWatch::start(&args.prefix);
+    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx)).map_err(|e| e.to_string());
+    let model = watch.finish();
+    let report = report?;
     drop(tx);
     let _ = logger.join();
     print_report(&report, args.rate_hz, &name);
     if let Some(path) = &args.report {
-        let text = serde_json::to_string_pretty(&report_json(&report, args.rate_hz, &name)).unwrap_or_default();
+        let c = ReportContext { run: &context, prefix: &args.prefix, device: &name, rate_hz: args.rate_hz, model };
+        let text = serde_json::to_string_pretty(&report_json(&report, &c)).unwrap_or_default();
         std::fs::write(path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());
     }

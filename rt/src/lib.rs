@@ -17,6 +17,7 @@
 //!    a JSON report.
 //! 4. [`RealtimeSetup`] and [`install_stop_handler`]: the process-level setup,
 //!    each refusal reported, never a panic.
+//! 5. [`host`]: the machine and start time a run's report records.
 //!
 //! **Architecture invariant:** the per-tick path (loop + monitor recording)
 //! allocates nothing, takes no lock and does no I/O; `tests/no_alloc.rs`
@@ -43,6 +44,7 @@
 
 pub mod clock;
 pub mod fixed_rate;
+pub mod host;
 pub mod monitor;
 pub mod ring;
 pub mod setup;

@@ -15,5 +15,5 @@ pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
 pub use realtime_section::{OverrunChoice, RealtimeSettings};
 pub(crate) use scene_file::line_column;
-pub use scene_file::{Precision, Scene, SceneLoadError};
+pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use tool_settings::{ToolSettings, ToolSource};

@@ -1,0 +1,117 @@
+//! What `lamina run`'s report records besides the deadline monitor's figures: the build, the
+//! host, the start time, the scene (name and SHA-256 of its file, or of the built-in text),
+//! the model's size, the rate and the solver. `docs/reports.md` describes every field.
+
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use lamina_core::model::Model;
+use lamina_core::real::Real;
+use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, SceneLoadError};
+use lamina_core::solver::{Simulation, Substeps};
+use lamina_rt::host::{HostInfo, rfc3339_utc};
+use sha2::{Digest, Sha256};
+
+/// The Lamina version (the workspace's `version`).
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// The git commit the binary was built from (`git rev-parse HEAD`), or `unknown`.
+pub const GIT_REVISION: &str = env!("LAMINA_GIT_REVISION");
+
+/// Lower-case hex SHA-256 of `bytes`.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A scene with the hash of the text it was read from.
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// SHA-256 of the file's bytes, or of the built-in default's text.
+    pub sha256: String,
+}
+
+/// Reads the scene file `path` once (hashing the bytes the scene is parsed from), or the
+/// built-in default.
+pub fn load_scene_hashed(path: Option<&Path>) -> Result<LoadedScene, String> {
+    let Some(path) = path else {
+        return Ok(LoadedScene { scene: Scene::builtin_default(), sha256: sha256_hex(DEFAULT_SCENE_TOML.as_bytes()) });
+    };
+    let io = |message: String| SceneLoadError::Io { path: path.to_path_buf(), message }.to_string();
+    let bytes = std::fs::read(path).map_err(|e| io(e.to_string()))?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| io(format!("not UTF-8 text: {e}")))?;
+    let scene = Scene::from_toml_str(text, Some(path)).map_err(|e| e.to_string())?;
+    Ok(LoadedScene { scene, sha256: sha256_hex(&bytes) })
+}
+
+/// The run's context, taken before the loop starts.
+pub struct RunContext {
+    started_utc: String,
+    host: HostInfo,
+    fields: serde_json::Value,
+}
+
+impl RunContext {
+    /// Now, this host, and what the scene, model and simulation are.
+    pub fn start<T: Real>(loaded: &LoadedScene, model: &Model, sim: &Simulation<T>, prefix: Option<&str>) -> Self {
+        let scene = &loaded.scene;
+        let params = sim.params();
+        let substeps_setting = match params.substeps {
+            Substeps::Auto => serde_json::json!("auto"),
+            Substeps::Fixed(n) => serde_json::json!(n),
+        };
+        let file: Option<PathBuf> = scene.path.clone();
+        let fields = serde_json::json!({
+            "scene": {
+                "name": scene.name,
+                "file": file.map(|f| f.display().to_string()),
+                "sha256": loaded.sha256,
+            },
+            "model": {
+                "nodes": model.nodes.len(),
+                "springs": model.springs.len(),
+                "layers": model.layers.len(),
+            },
+            "rate_hz": scene.rate_hz,
+            "solver": {
+                "integrator": params.integrator.name(),
+                "substeps": sim.substeps(),
+                "substeps_setting": substeps_setting,
+                "threads": params.threads,
+                "precision": T::NAME,
+                "simd": params.simd.to_string(),
+            },
+            "prefix": prefix,
+        });
+        Self { started_utc: rfc3339_utc(SystemTime::now()), host: HostInfo::detect(), fields }
+    }
+
+    /// The report: the monitor's summary (`summary_json`) with the context's fields added.
+    pub fn report(&self, summary_json: &str) -> serde_json::Value {
+        let mut report: serde_json::Value = serde_json::from_str(summary_json).unwrap_or_default();
+        let context = serde_json::json!({
+            "lamina": { "version": VERSION, "git_revision": GIT_REVISION },
+            "started_utc": self.started_utc,
+            "host": self.host,
+        });
+        if let Some(r) = report.as_object_mut() {
+            for part in [context, self.fields.clone()] {
+                if let serde_json::Value::Object(fields) = part {
+                    r.extend(fields);
+                }
+            }
+        }
+        report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_hex_known_vectors_works() {
+        // FIPS 180-2 examples.
+        assert_eq!(sha256_hex(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+        assert_eq!(sha256_hex(b""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+    }
+}
