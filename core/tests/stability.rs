@@ -55,6 +55,45 @@ fn step_10x_explicit_limit_substeps_automatically_works() {
 }
 
 #[test]
+fn fixed_step_10x_explicit_limit_is_caught_by_the_guard_works() {
+    // One explicit step at 10x the critical step per frame: frames go bad, the guard rolls
+    // them back and re-steps them (more sub-steps, then implicit Euler); implicit schemes need
+    // no rollback. The
+    // guard judges a frame by speed and displacement caps, so an explicit frame can gain some
+    // energy and still pass: the energy bound holds for the implicit schemes only here.
+    let cases = stability_cases();
+    let case = cases.iter().find(|c| c.name == "fixed_step_10x_explicit_limit").expect("case exists");
+    for kind in IntegratorKind::ALL {
+        let row = run_case(case, kind);
+        assert!(row.finite && row.max_displacement_m < 0.3, "the guard keeps it bounded: {row:?}");
+        assert_eq!(row.substeps, 1, "{row:?}");
+        if kind.is_explicit() {
+            assert!(row.substep_over_critical > 2.0, "the step really is beyond the limit: {row:?}");
+            assert!(row.rollbacks > 0, "the guard caught the explicit steps: {row:?}");
+            assert_eq!(row.rollbacks, row.by_substeps + row.by_implicit + row.frozen, "{row:?}");
+        } else {
+            assert_eq!(row.rollbacks, 0, "implicit schemes are stable at 10x: {row:?}");
+            assert!(row.energy_excess < 0.05, "{row:?}");
+        }
+    }
+}
+
+#[test]
+fn fixed_step_10x_without_guard_diverges_explicit_only_fails() {
+    let cases = stability_cases();
+    let case = cases.iter().find(|c| c.name == "fixed_step_10x_unguarded").expect("case exists");
+    for k in IntegratorKind::ALL {
+        let row = run_case(case, k);
+        if k.is_explicit() {
+            assert!(!row.finite || row.max_displacement_m > 1.0, "an explicit step at 10x its limit diverges: {row:?}");
+        } else {
+            assert!(row.finite && row.max_displacement_m < 0.3, "implicit schemes stay bounded: {row:?}");
+            assert!(row.energy_excess < 0.05, "{row:?}");
+        }
+    }
+}
+
+#[test]
 fn pull_3x_rest_length_stays_stable_works() {
     for row in check("pull_3x_rest_length") {
         assert!(row.max_stretch_ratio > 3.0, "the case must really pull past 3x: {row:?}");

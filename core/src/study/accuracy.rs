@@ -159,18 +159,32 @@ impl Press {
     }
 }
 
+/// How one run steps: integrator, frame, sub-steps and (implicit_factored) PCG iterations.
+#[derive(Clone, Copy)]
+struct Stepping {
+    integrator: IntegratorKind,
+    dt: f64,
+    substeps: Substeps,
+    pcg_iterations: u32,
+}
+
+impl Stepping {
+    /// One fixed step of `h` per frame.
+    fn fixed(integrator: IntegratorKind, h: f64) -> Self {
+        Stepping { integrator, dt: h, substeps: Substeps::Fixed(1), pcg_iterations: 1 }
+    }
+}
+
 /// Runs `t_end` seconds in frames of `dt` (a whole number of them, even with a press);
 /// returns the final positions, wall time per simulated second and sub-steps per frame.
 fn run<T: Real>(
     model: &Model,
     effects: &Effects,
-    integrator: IntegratorKind,
-    dt: f64,
-    substeps: Substeps,
+    stepping: Stepping,
     t_end: f64,
     press: Option<Press>,
-    pcg_iterations: u32,
 ) -> (Vec<[f64; 3]>, f64, u32) {
+    let Stepping { integrator, dt, substeps, pcg_iterations } = stepping;
     let params = IntegrationParameters {
         dt,
         integrator,
@@ -290,10 +304,11 @@ pub fn accuracy_study(
             if previous.is_some_and(|(h0, _)| h0 == h) {
                 continue;
             }
-            let (x, cost64, _) = run::<f64>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press, 1);
+            let stepping = Stepping::fixed(integrator, h);
+            let (x, cost64, _) = run::<f64>(&model, &effects, stepping, t_end, press);
             let error = max_distance(&x, &reference);
             let cost = if case == AccuracyCase::Model {
-                run::<f32>(&model, &effects, integrator, h, Substeps::Fixed(1), t_end, press, 1).1
+                run::<f32>(&model, &effects, stepping, t_end, press).1
             } else {
                 cost64
             };
@@ -326,10 +341,10 @@ pub fn accuracy_study(
             iterations.iter().map(move |&i| (k, i))
         });
         for (integrator, iterations) in configurations {
-            let (x, _, substeps) =
-                run::<f64>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press, iterations);
+            let stepping = Stepping { integrator, dt: 1e-3, substeps: Substeps::Auto, pcg_iterations: iterations };
+            let (x, _, substeps) = run::<f64>(&model, &effects, stepping, t_end, press);
             let error = max_distance(&x, &reference);
-            let cost = run::<f32>(&model, &effects, integrator, 1e-3, Substeps::Auto, t_end, press, iterations).1;
+            let cost = run::<f32>(&model, &effects, stepping, t_end, press).1;
             let h = 1e-3 / f64::from(substeps);
             rows.push(AccuracyRow {
                 case,

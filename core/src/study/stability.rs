@@ -1,5 +1,6 @@
 //! The hard cases: stiffness ratios of 10⁴ and 10⁵ between layers, steps ten times the
-//! explicit limit, pulls to three times rest length, zero-length and inverted springs,
+//! explicit limit (sub-stepped automatically, and taken as one fixed step with and without the
+//! guard), pulls to three times rest length, zero-length and inverted springs,
 //! coincident nodes, sudden large loads. Each must stay finite and bounded, and never hold
 //! more energy than was put in.
 
@@ -103,6 +104,20 @@ fn ratio_case(ratio: f64) -> impl Fn(IntegratorKind) -> (Model, IntegrationParam
     }
 }
 
+/// The block pulled by a handle, one step per frame of 10 times the symplectic critical
+/// step, with or without the guard.
+fn fixed_step_10x(k: IntegratorKind, guard: bool) -> (Model, IntegrationParameters, Effects) {
+    let m = small_block(BlockSpec::default().skin);
+    let mut e = with_pull(&m, base_effects(), 0.01, 5.0);
+    let probe =
+        Simulation::<f64>::new(&m, params(IntegratorKind::SymplecticEuler), e.clone()).expect("the block is valid");
+    let dt = 10.0 * probe.critical_step();
+    if !guard {
+        e.guard = None;
+    }
+    (m, IntegrationParameters { dt, substeps: Substeps::Fixed(1), ..params(k) }, e)
+}
+
 /// Every hard case.
 pub fn stability_cases() -> Vec<StabilityCase> {
     vec![
@@ -130,6 +145,18 @@ pub fn stability_cases() -> Vec<StabilityCase> {
                 (m, IntegrationParameters { dt, substeps: Substeps::Auto, ..params(k) }, e)
             },
             frames: 200,
+        },
+        StabilityCase {
+            name: "fixed_step_10x_explicit_limit",
+            description: "one step per frame at 10x the symplectic critical step (no automatic sub-steps), guard on: explicit steps fail and are caught",
+            build: |k| fixed_step_10x(k, true),
+            frames: 100,
+        },
+        StabilityCase {
+            name: "fixed_step_10x_unguarded",
+            description: "one step per frame at 10x the symplectic critical step, guard off: explicit schemes diverge, implicit ones do not",
+            build: |k| fixed_step_10x(k, false),
+            frames: 100,
         },
         StabilityCase {
             name: "pull_3x_rest_length",
