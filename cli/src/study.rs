@@ -178,7 +178,7 @@ pub fn stability(json: bool) -> Result<(), String> {
     if !json {
         println!("hard cases, f32, every integrator; machine: {}", machine::describe());
         println!(
-            "{:<33} {:<17} {:>5} {:>7} {:>6} {:>9} {:>8} {:>9} {:>5} {:>5} {:>5} {:>6}",
+            "{:<33} {:<17} {:>5} {:>7} {:>6} {:>9} {:>8} {:>9} {:>6} {:>9} {:>5} {:>5} {:>5} {:>6}",
             "case",
             "integrator",
             "sub",
@@ -186,6 +186,8 @@ pub fn stability(json: bool) -> Result<(), String> {
             "finite",
             "max|u| m",
             "stretch",
+            "k ratio",
+            "stiff",
             "E excess",
             "rollb",
             "impl",
@@ -198,7 +200,7 @@ pub fn stability(json: bool) -> Result<(), String> {
             let r = run_case(&case, k);
             if !json {
                 println!(
-                    "{:<33} {:<17} {:>5} {:>7.3} {:>6} {:>9.4} {:>8.2} {:>9.2e} {:>5} {:>5} {:>5} {:>6.2}",
+                    "{:<33} {:<17} {:>5} {:>7.3} {:>6} {:>9.4} {:>8.2} {:>9.2e} {:>6} {:>9.2e} {:>5} {:>5} {:>5} {:>6.2}",
                     r.case,
                     r.integrator,
                     r.substeps,
@@ -206,6 +208,8 @@ pub fn stability(json: bool) -> Result<(), String> {
                     r.finite,
                     r.max_displacement_m,
                     r.max_stretch_ratio,
+                    r.loaded_stiffness_ratio,
+                    r.stiff_phase_springs,
                     r.energy_excess,
                     r.rollbacks,
                     r.by_implicit,
@@ -220,7 +224,7 @@ pub fn stability(json: bool) -> Result<(), String> {
         println!("{}", serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?);
     } else {
         println!(
-            "\nE excess: largest (E(t) - W_loads(t) - E(0)) / energy scale; 0 means energy never exceeded the work put in."
+            "\nE excess: largest (E(t) - W_loads(t) - E(0)) / energy scale; 0 means energy never exceeded the work put in.\nk ratio: stiffest over softest spring tangent in the final state; stiff: bilinear springs in their stiff phase then."
         );
         for case in stability_cases() {
             println!("  {:<33} {}", case.name, case.description);
