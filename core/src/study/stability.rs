@@ -1,8 +1,7 @@
 //! The hard cases: stiffness ratios of 10⁴, 10⁵ and 10⁶ between layers reached in the loaded
-//! state, steps ten times the
-//! explicit limit (sub-stepped automatically, and taken as one fixed step with and without the
-//! guard), pulls to three times rest length, zero-length and inverted springs,
-//! coincident nodes, sudden large loads. Each must stay finite and bounded, and never hold
+//! state, steps ten times the explicit limit (sub-stepped automatically, and taken as one fixed
+//! step with and without the guard), pulls to three times rest length, zero-length and
+//! inverted springs, coincident nodes, sudden large loads. Each must stay finite and bounded, and never hold
 //! more energy than was put in.
 
 use super::energy::EnergyLedger;
