@@ -5,11 +5,16 @@
 //!   device loop at 4 kHz pinned to the first CPU;
 //! - the viewer (`lamina-viewer`, headless when there is no display) writing PNG frames.
 //!
-//! At exit it prints the cross-process profile (core deadlines, device-loop rate and jitter,
+//! At exit, or on Ctrl-C (SIGINT) or SIGTERM, it stops the children in order (haptics, core,
+//! viewer), prints the cross-process profile (core deadlines, device-loop rate and jitter,
 //! core-to-device and core-to-viewer latency, viewer frame time) and where everything went.
+//! Each run clears the previous run's frames.
 
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 /// The demo's device script (device frame, metres, buttons), written to the output folder.
 pub const DEMO_TRAJECTORY: &str = include_str!("../../config/trajectories/demo_press_pull.csv");
@@ -42,7 +47,55 @@ pub fn haptics_args(scene: Option<&Path>) -> Result<Option<[String; 4]>, String>
     }))
 }
 
-/// Runs the demo for `seconds`, writing frames and reports under `out`.
+/// Set by SIGINT or SIGTERM: the demo then stops its children in order and prints their
+/// summaries.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Waits for `child` to exit; `None` when the demo was told to stop first.
+fn wait_or_stop(child: &mut Child, name: &str) -> Result<Option<ExitStatus>, String> {
+    loop {
+        if let Some(status) = child.try_wait().map_err(|e| format!("{name}: {e}"))? {
+            return Ok(Some(status));
+        }
+        if STOP.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Sends `child` SIGTERM (its own stop handler then writes its summary and report) and waits
+/// for it; SIGKILL after 10 s.
+fn terminate(child: &mut Child, name: &str) -> Result<ExitStatus, String> {
+    if let Some(status) = child.try_wait().map_err(|e| format!("{name}: {e}"))? {
+        return Ok(status);
+    }
+    let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+    let started = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().map_err(|e| format!("{name}: {e}"))? {
+            return Ok(status);
+        }
+        if started.elapsed() > Duration::from_secs(10) {
+            let _ = child.kill();
+            return child.wait().map_err(|e| format!("{name}: {e}"));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Waits for `child`, or stops it when the demo is told to stop.
+fn finish(child: &mut Child, name: &str, stop_now: bool) -> Result<ExitStatus, String> {
+    if !stop_now && let Some(status) = wait_or_stop(child, name)? {
+        return Ok(status);
+    }
+    terminate(child, name)
+}
+
+/// Runs the demo for `seconds`, writing frames and reports under `out`. Its children run in
+/// their own process group, so Ctrl-C reaches the demo alone, which then stops the haptics
+/// process (its force goes to zero first), the core and the viewer, in that order, and prints
+/// every summary.
 pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String> {
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err("--seconds must be positive".into());
@@ -50,7 +103,13 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let prefix = format!("demo_{}", std::process::id());
     let frames_dir = out.join("frames");
+    // This run's frames only: an earlier run's are cleared.
+    let cleared = std::fs::read_dir(&frames_dir).map(|d| d.count()).unwrap_or(0);
+    if frames_dir.exists() {
+        std::fs::remove_dir_all(&frames_dir).map_err(|e| format!("{}: {e}", frames_dir.display()))?;
+    }
     std::fs::create_dir_all(&frames_dir).map_err(|e| format!("{}: {e}", frames_dir.display()))?;
+    let _ = lamina_rt::install_stop_handler(&STOP);
     let headless = std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
     let haptics_args = haptics_args(scene)?;
 
@@ -66,6 +125,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     }
     let viewer_log = out.join("viewer.log");
     let mut viewer = viewer
+        .process_group(0)
         .stdout(Stdio::from(file(&viewer_log)?))
         .stderr(Stdio::inherit())
         .spawn()
@@ -78,7 +138,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
         core.arg("--scene").arg(s);
     }
     let core_log = out.join("core.log");
-    let core = core
+    let mut core = core
+        .process_group(0)
         .stdout(Stdio::from(file(&core_log)?))
         .stderr(Stdio::inherit())
         .spawn()
@@ -87,7 +148,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     // Haptics joins once the core is up (it renders zero force until the first feedback).
     let haptics_report = out.join("haptics_report.json");
     let haptics_log = out.join("haptics.log");
-    let haptics = match haptics_args {
+    let mut haptics = match haptics_args {
         Some(args) => {
             let trajectory = out.join("demo_press_pull.csv");
             std::fs::write(&trajectory, DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
@@ -106,7 +167,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
                 h.arg("--scene").arg(s);
             }
             Some(
-                h.stdout(Stdio::from(file(&haptics_log)?))
+                h.process_group(0)
+                    .stdout(Stdio::from(file(&haptics_log)?))
                     .stderr(Stdio::from(file(&out.join("haptics_events.log"))?))
                     .spawn()
                     .map_err(|e| format!("lamina-haptics: {e}"))?,
@@ -123,14 +185,27 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
         },
         if headless { "headless, no display found" } else { "window" }
     );
-    let core_status = core.wait_with_output().map_err(|e| format!("lamina run: {e}"))?.status;
-    let haptics_status = match haptics {
-        Some(h) => Some(h.wait_with_output().map_err(|e| format!("lamina-haptics: {e}"))?.status),
+    println!(
+        "writing to {} (frames in {}{}); Ctrl-C stops it early",
+        out.display(),
+        frames_dir.display(),
+        if cleared > 0 { format!(", {cleared} earlier frames cleared") } else { String::new() }
+    );
+    let core_done = wait_or_stop(&mut core, "lamina run")?;
+    if let Some(signal) = lamina_rt::caught_stop_signal() {
+        println!("{}: stopping haptics, core and viewer, in that order", lamina_rt::signal_name(signal));
+    }
+    let stopping = core_done.is_none();
+    let haptics_status = match haptics.as_mut() {
+        Some(h) => Some(finish(h, "lamina-haptics", stopping)?),
         None => None,
     };
+    let core_status = match core_done {
+        Some(status) => status,
+        None => terminate(&mut core, "lamina run")?,
+    };
     // The viewer stops after its frame count or when told.
-    let _ = Command::new("kill").args(["-TERM", &viewer.id().to_string()]).status();
-    let _ = viewer.wait();
+    terminate(&mut viewer, "lamina-viewer")?;
 
     println!("\n== core (lamina run)\n{}", std::fs::read_to_string(&core_log).unwrap_or_default());
     if haptics_status.is_some() {
@@ -151,6 +226,10 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
         haptics_log.display(),
         viewer_log.display()
     );
+    if let Some(signal) = lamina_rt::caught_stop_signal() {
+        println!("stopped early by {}", lamina_rt::signal_name(signal));
+        return Ok(());
+    }
     if !core_status.success() {
         return Err(format!("the core exited with {core_status}"));
     }
