@@ -85,11 +85,12 @@ fn build_models(opts: &CapacityOptions) -> Vec<(Scene, Result<Model, String>)> {
     let mut out = Vec::new();
     for &(columns, rows) in &opts.grids {
         let mut scene = Scene::builtin_default();
-        let length = match scene.model {
-            ModelSource::CylinderLimb { length, .. } => length,
-            _ => 0.24,
+        // The default limb's length and springs on every grid.
+        let (length, springs) = match scene.model {
+            ModelSource::CylinderLimb { length, springs, .. } => (length, springs),
+            _ => (0.24, None),
         };
-        scene.model = ModelSource::CylinderLimb { columns, rows, length };
+        scene.model = ModelSource::CylinderLimb { columns, rows, length, springs };
         scene.name = format!("{LIMB} {columns}x{rows}");
         let model = scene.build_model().map_err(|e| e.to_string());
         out.push((scene, model));

@@ -1,12 +1,19 @@
 //! `lamina fit`: fits each layer's springs to its tissue targets (`config/materials/`, or the
-//! copy compiled into the binary; see [`load_targets`]), per grid size of the cylindrical limb, prints the targets against what the fitted layers
-//! achieve, writes every annealing iteration's curve (CSV) and a plot like the paper's
-//! Fig. 10 (PNG), and the fitted 39 × 10 (or chosen) limb as an XML model with provenance.
+//! copy compiled into the binary; see [`load_targets`]), per grid size of the cylindrical limb
+//! or for a scene's limb; prints the targets against what the fitted layers achieve and each
+//! layer's error against the tissue's own curve; writes every annealing iteration's curve and
+//! the fitted curve against the tissue's (CSV) and a plot like the paper's Fig. 10 (PNG) for
+//! every fit; for a scene, the `[model.springs]` table; for the model grid, the fitted limb as
+//! an XML model with provenance.
 
 use super::plot::font_available;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lamina_core::fit::{FitSettings, LayerFit, LayerGeometry, TissueTargets, fit_layer};
+use lamina_core::fit::{
+    CurveError, FitSettings, LayerFit, LayerGeometry, TargetCurve, TissueTargets, curve_error, cylinder_geometry,
+    fit_layers, scene_geometry, scene_springs,
+};
 use lamina_core::generator::{CylinderLimb, GridSize, Materials, generate};
+use lamina_core::scene::{ModelSource, Scene, SceneSprings};
 use plotters::prelude::*;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -17,10 +24,12 @@ pub struct FitOptions {
     /// Folder holding `skin.toml`, `fat.toml`, `muscle.toml`; `None`: the search order of
     /// [`load_targets`].
     pub materials: Option<PathBuf>,
-    /// Grid sizes to fit for.
+    /// Grid sizes of the cylindrical limb to fit for.
     pub grids: Vec<GridSize>,
-    /// Grid whose fitted limb is written as XML.
-    pub model_grid: GridSize,
+    /// Scene files whose limb to fit for.
+    pub scenes: Vec<PathBuf>,
+    /// Grid whose fitted limb is written as XML (fitted too if not in `grids`).
+    pub model_grid: Option<GridSize>,
     /// Annealing seed.
     pub seed: u64,
     /// Most objective evaluations per layer's annealing (default 1500).
@@ -54,19 +63,9 @@ pub fn load_targets(folder: Option<&Path>) -> Result<([TissueTargets; 3], String
     Ok(([skin?, fat?, muscle?], source))
 }
 
-/// The layers' geometry in a cylindrical limb of grid `grid`: spacing = the geometric mean
-/// of a cell's sides on the skin (circumference / W by length / H), thickness = the layer's
-/// radial extent.
-pub fn limb_geometry(grid: GridSize) -> [(usize, LayerGeometry); 3] {
-    let limb = CylinderLimb { grid, ..CylinderLimb::default() };
-    let around = 2.0 * std::f64::consts::PI * limb.outer_skin_radius / grid.columns as f64;
-    let along = limb.length / grid.rows as f64;
-    let h = (around * along).sqrt();
-    [
-        (0, LayerGeometry { spacing_m: h, thickness_m: limb.outer_skin_radius - limb.skin_fat_radius }),
-        (1, LayerGeometry { spacing_m: h, thickness_m: limb.skin_fat_radius - limb.fat_muscle_radius }),
-        (2, LayerGeometry { spacing_m: h, thickness_m: limb.fat_muscle_radius - limb.bone_radius }),
-    ]
+/// The layers' geometry in the default cylindrical limb (0.30 m) on `grid`.
+pub fn limb_geometry(grid: GridSize) -> [LayerGeometry; 3] {
+    cylinder_geometry(&CylinderLimb { grid, ..CylinderLimb::default() })
 }
 
 fn spring_text(fit: &LayerFit) -> String {
@@ -78,40 +77,39 @@ fn spring_text(fit: &LayerFit) -> String {
     }
 }
 
-/// Fits the three layers of one grid size, in parallel (one thread per layer).
-fn fit_grid(
+/// Fits the three layers on `geometry` (one thread per layer), with a progress bar each.
+fn fit_three(
     targets: &[TissueTargets; 3],
-    grid: GridSize,
+    label: &str,
+    geometry: &[LayerGeometry; 3],
     settings: &FitSettings,
     bars: &MultiProgress,
-) -> Result<Vec<LayerFit>, String> {
-    let geometry = limb_geometry(grid);
-    let results: Vec<Result<LayerFit, String>> = std::thread::scope(|s| {
-        let handles: Vec<_> = geometry
-            .iter()
-            .map(|&(i, g)| {
-                let t = &targets[i];
-                let bar = bars.add(ProgressBar::new(settings.anneal.max_evaluations as u64));
-                bar.set_style(
-                    ProgressStyle::with_template("{prefix:>14} [{bar:30}] {pos}/{len} evaluations, {msg}")
-                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-                );
-                bar.set_prefix(format!("{} {}x{}", t.name, grid.columns, grid.rows));
-                s.spawn(move || {
-                    let mut best = f64::INFINITY;
-                    let fit = fit_layer(t, g, settings, |step| {
-                        best = best.min(step.psi);
-                        bar.set_position(step.evaluation as u64);
-                        bar.set_message(format!("best psi {best:.2e}"));
-                    });
-                    bar.finish();
-                    fit.map_err(|e| format!("{} ({}x{}): {e}", t.name, grid.columns, grid.rows))
-                })
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err("fitting thread panicked".into()))).collect()
-    });
-    results.into_iter().collect()
+) -> Result<[LayerFit; 3], String> {
+    let style = ProgressStyle::with_template("{prefix:>20} [{bar:30}] {pos}/{len} evaluations, {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    let progress: Vec<(ProgressBar, std::sync::Mutex<f64>)> = targets
+        .iter()
+        .map(|t| {
+            let bar = bars.add(ProgressBar::new(settings.anneal.max_evaluations as u64));
+            bar.set_style(style.clone());
+            bar.set_prefix(format!("{} {label}", t.name));
+            (bar, std::sync::Mutex::new(f64::INFINITY))
+        })
+        .collect();
+    let on_step = |layer: usize, step: &lamina_core::fit::AnnealStep| {
+        let (bar, best) = &progress[layer];
+        let mut best = best.lock().unwrap_or_else(|e| e.into_inner());
+        *best = best.min(step.psi);
+        bar.set_position(step.evaluation as u64);
+        bar.set_message(format!("best psi {:.2e}", *best));
+    };
+    let results = fit_layers(targets, geometry, settings, &on_step);
+    progress.iter().for_each(|(bar, _)| bar.finish());
+    let [skin, fat, muscle] = results;
+    let named = |r: Result<LayerFit, lamina_core::fit::LayerFitError>, t: &TissueTargets| {
+        r.map_err(|e| format!("{} ({label}): {e}", t.name))
+    };
+    Ok([named(skin, &targets[0])?, named(fat, &targets[1])?, named(muscle, &targets[2])?])
 }
 
 /// Writes every evaluation's curve as CSV (`evaluation,psi,accepted,strain,stress_pa`).
@@ -125,12 +123,24 @@ fn write_curves(fit: &LayerFit, path: &Path) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// The paper's Fig. 10: every iteration's stress-strain curve (grey), the target (black)
-/// and the fitted layer (blue).
+/// Writes the fitted layer's curve against the tissue's (`strain,fitted_stress_pa,
+/// tissue_stress_pa,error_of_peak`), one row per tested strain.
+fn write_curve_error(error: &CurveError, path: &Path) -> Result<(), String> {
+    let peak = error.points.iter().map(|p| p.2.abs()).fold(0.0, f64::max);
+    let mut text = String::from("strain,fitted_stress_pa,tissue_stress_pa,error_of_peak\n");
+    for (e, got, want) in &error.points {
+        text.push_str(&format!("{e},{got},{want},{}\n", (got - want) / peak));
+    }
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The paper's Fig. 10: every iteration's stress-strain curve (grey), the tissue's curve
+/// (black, labelled with what it is), the bilinear targets when they differ from it
+/// (dashed), and the fitted layer (blue).
 fn plot_fit(fit: &LayerFit, target: &TissueTargets, path: &Path) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let x_max = target.max_strain * 1.1;
-    let y_max = target.stress_at(target.max_strain) * 1.3 / 1e3;
+    let y_max = target.stress_at(target.max_strain).max(target.curve_stress_at(target.max_strain)) * 1.3 / 1e3;
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let font = font_available();
@@ -155,20 +165,28 @@ fn plot_fit(fit: &LayerFit, target: &TissueTargets, path: &Path) -> Result<(), S
             .draw_series(LineSeries::new(clip(curve), RGBColor(190, 190, 190).stroke_width(1)))
             .map_err(|e| err(&e))?;
     }
-    let n = 100;
-    let target_pts: Vec<(f64, f64)> = (0..=n)
-        .map(|i| {
-            let e = target.max_strain * i as f64 / n as f64;
-            (e, target.stress_at(e) / 1e3)
-        })
-        .collect();
-    let t = chart.draw_series(LineSeries::new(target_pts, BLACK.stroke_width(3))).map_err(|e| err(&e))?;
+    let sample = |f: &dyn Fn(f64) -> f64| -> Vec<(f64, f64)> {
+        (0..=100).map(|i| target.max_strain * i as f64 / 100.0).map(|e| (e, f(e) / 1e3)).collect()
+    };
+    let t = chart
+        .draw_series(LineSeries::new(sample(&|e| target.curve_stress_at(e)), BLACK.stroke_width(3)))
+        .map_err(|e| err(&e))?;
     if font {
-        t.label("target (measured tissue)").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+        t.label(format!("tissue: {}", target.curve_label))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    }
+    if target.curve != TargetCurve::Law {
+        let dashed = DashedLineSeries::new(sample(&|e| target.stress_at(e)), 8, 6, BLACK.stroke_width(1));
+        let d = chart.draw_series(dashed).map_err(|e| err(&e))?;
+        if font {
+            d.label("bilinear targets (best bilinear of the tissue curve)")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+        }
     }
     let b = chart.draw_series(LineSeries::new(clip(&fit.best_curve), BLUE.stroke_width(2))).map_err(|e| err(&e))?;
     if font {
-        b.label("fitted springs").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+        b.label("fitted springs (virtual tensile test)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
@@ -178,6 +196,44 @@ fn plot_fit(fit: &LayerFit, target: &TissueTargets, path: &Path) -> Result<(), S
             .map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
+}
+
+/// One fit: a grid of the default limb or a scene's limb.
+struct Job {
+    /// `24x6`, or the scene's name.
+    label: String,
+    geometry: [LayerGeometry; 3],
+    /// The scene file and its springs, for a scene.
+    scene: Option<(PathBuf, Option<SceneSprings>)>,
+}
+
+fn scene_job(path: &Path) -> Result<Job, String> {
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let geometry = scene_geometry(&scene)?;
+    let springs = match &scene.model {
+        ModelSource::CylinderLimb { springs, .. } => *springs,
+        ModelSource::Anatomy(spec) => Some(spec.materials)
+            .filter(|m| *m != Materials::default())
+            .map(|m| SceneSprings { fit_seed: 0, skin: m.skin.spring, fat: m.fat.spring, muscle: m.muscle.spring }),
+        _ => None,
+    };
+    Ok(Job { label: scene.name.clone(), geometry, scene: Some((path.to_path_buf(), springs)) })
+}
+
+/// Largest relative difference between two springs' parameters (`None` when their laws differ).
+pub fn spring_difference(
+    a: &lamina_core::generator::SpringMaterial,
+    b: &lamina_core::generator::SpringMaterial,
+) -> Option<f64> {
+    use lamina_core::generator::SpringMaterial::{Bilinear, Linear};
+    let rel = |x: f64, y: f64| ((x - y) / y).abs();
+    match (*a, *b) {
+        (Linear { stiffness: x }, Linear { stiffness: y }) => Some(rel(x, y)),
+        (Bilinear { k1, k2, turn_strain, .. }, Bilinear { k1: l1, k2: l2, turn_strain: t, .. }) => {
+            Some(rel(k1, l1).max(rel(k2, l2)).max(rel(turn_strain, t)))
+        }
+        _ => None,
+    }
 }
 
 /// Runs `lamina fit`.
@@ -193,8 +249,14 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
         bars.set_draw_target(ProgressDrawTarget::hidden());
     }
     let mut grids = opts.grids.clone();
-    if !grids.contains(&opts.model_grid) {
-        grids.push(opts.model_grid);
+    if let Some(g) = opts.model_grid.filter(|g| !grids.contains(g)) {
+        grids.push(g);
+    }
+    let grid_label = |g: &GridSize| format!("{}x{}", g.columns, g.rows);
+    let mut jobs: Vec<Job> =
+        grids.iter().map(|g| Job { label: grid_label(g), geometry: limb_geometry(*g), scene: None }).collect();
+    for path in &opts.scenes {
+        jobs.push(scene_job(path)?);
     }
     println!(
         "lamina fit: seed {}, annealing T0 = {} psi(x0), cooling {} every {} moves, stop at psi < {:e} or {} evaluations; {} loads per tensile test",
@@ -206,21 +268,24 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
         settings.anneal.max_evaluations,
         settings.loads
     );
-    let mut per_grid = Vec::new();
-    for &grid in &grids {
+    let mut fitted = Vec::new();
+    for job in &jobs {
         let start = Instant::now();
-        let fits = fit_grid(&targets, grid, &settings, &bars)?;
-        per_grid.push((grid, fits, start.elapsed().as_secs_f64()));
+        let fits = fit_three(&targets, &job.label, &job.geometry, &settings, &bars)?;
+        fitted.push((fits, start.elapsed().as_secs_f64()));
     }
-    println!("\nfitted springs per grid size (the paper's Table 2 trend: stiffer springs on coarser grids)");
-    println!("{:<7} {:>9} {:<7} {:<62} {:>10} {:>6}", "grid", "cell mm", "layer", "springs", "psi", "evals");
-    for (grid, fits, _) in &per_grid {
-        let g = limb_geometry(*grid);
-        for (fit, (_, geo)) in fits.iter().zip(g) {
+    println!("\nfitted springs (the paper's Table 2 trend: stiffer springs on coarser grids)");
+    println!(
+        "{:<24} {:>8} {:>8} {:<7} {:<62} {:>10} {:>6}",
+        "limb", "cell mm", "layer mm", "layer", "springs", "psi", "evals"
+    );
+    for (job, (fits, _)) in jobs.iter().zip(&fitted) {
+        for (fit, geo) in fits.iter().zip(&job.geometry) {
             println!(
-                "{:<7} {:>9.2} {:<7} {:<62} {:>10.2e} {:>6}",
-                format!("{}x{}", grid.columns, grid.rows),
+                "{:<24} {:>8.2} {:>8.2} {:<7} {:<62} {:>10.2e} {:>6}",
+                job.label,
                 geo.spacing_m * 1e3,
+                geo.thickness_m * 1e3,
                 fit.tissue,
                 spring_text(fit),
                 fit.psi,
@@ -228,11 +293,65 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
             );
         }
     }
-    let (grid, fits, seconds) =
-        per_grid.iter().find(|(g, _, _)| *g == opts.model_grid).ok_or("model grid was not fitted")?;
     println!(
-        "\ntargets against the fitted layers, {}x{} limb ({seconds:.1} s for its three layers on two threads)",
-        grid.columns, grid.rows
+        "\nfitted layers against the tissue's curve, at every tested strain: RMS and largest error as a share of the curve's RMS and peak stress, and the error at the smallest strain"
+    );
+    println!("{:<24} {:<7} {:<62} {:>7} {:>7} {:>10}", "limb", "layer", "tissue curve", "RMS", "max", "low strain");
+    for (job, (fits, _)) in jobs.iter().zip(&fitted) {
+        for (fit, target) in fits.iter().zip(&targets) {
+            let safe = job.label.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
+            let csv = opts.out.join(format!("{}_{safe}_iterations.csv", fit.tissue));
+            write_curves(fit, &csv)?;
+            let png = opts.out.join(format!("{}_{safe}_fit.png", fit.tissue));
+            plot_fit(fit, target, &png)?;
+            let Some(error) = curve_error(target, &fit.best_curve) else {
+                println!("{:<24} {:<7} {:<62} (no tested strain)", job.label, fit.tissue, target.curve_label);
+                continue;
+            };
+            write_curve_error(&error, &opts.out.join(format!("{}_{safe}_curve_error.csv", fit.tissue)))?;
+            println!(
+                "{:<24} {:<7} {:<62} {:>6.1}% {:>6.1}% {:>9.1}%",
+                job.label,
+                fit.tissue,
+                target.curve_label,
+                100.0 * error.rms,
+                100.0 * error.max,
+                100.0 * error.low_strain
+            );
+        }
+    }
+    for (job, (fits, seconds)) in jobs.iter().zip(&fitted) {
+        let Some((path, current)) = &job.scene else { continue };
+        let springs = scene_springs(fits, settings.anneal.seed);
+        let toml = springs.to_toml();
+        let file = opts
+            .out
+            .join(format!("springs_{}.toml", job.label.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_")));
+        std::fs::write(&file, &toml).map_err(|e| format!("{}: {e}", file.display()))?;
+        let verdict = match current {
+            None => "the scene has no [model.springs]: it runs the generator's default springs".to_string(),
+            Some(c) => {
+                let worst = [(c.skin, springs.skin), (c.fat, springs.fat), (c.muscle, springs.muscle)]
+                    .iter()
+                    .map(|(a, b)| spring_difference(a, b).unwrap_or(f64::INFINITY))
+                    .fold(0.0, f64::max);
+                format!("the scene's springs differ from this fit by {:.2} % at most", 100.0 * worst)
+            }
+        };
+        println!("\n{} ({seconds:.1} s): {verdict}; its [model.springs] ({}):\n{toml}", path.display(), file.display());
+    }
+    let Some(model_grid) = opts.model_grid else {
+        println!(
+            "written to {}: iteration curves and curve errors (CSV), Fig. 10-style plots (PNG)",
+            opts.out.display()
+        );
+        return Ok(());
+    };
+    let index = grids.iter().position(|g| *g == model_grid).ok_or("model grid was not fitted")?;
+    let (fits, seconds) = &fitted[index];
+    println!(
+        "\ntargets against the fitted layers, {} limb ({seconds:.1} s for its three layers)",
+        grid_label(&model_grid)
     );
     println!("{:<7} {:<20} {:>14} {:>14} {:>9}", "layer", "target", "measured", "fitted model", "error");
     for fit in fits {
@@ -247,18 +366,9 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
             );
         }
     }
-    for (fit, target) in fits.iter().zip(&targets) {
-        let csv = opts.out.join(format!("{}_{}x{}_iterations.csv", fit.tissue, grid.columns, grid.rows));
-        write_curves(fit, &csv)?;
-        let png = opts.out.join(format!("{}_{}x{}_fit.png", fit.tissue, grid.columns, grid.rows));
-        plot_fit(fit, target, &png)?;
-    }
     // The fitted limb, springs replaced, with provenance.
-    let mut materials = Materials::default();
-    materials.skin.spring = fits[0].material;
-    materials.fat.spring = fits[1].material;
-    materials.muscle.spring = fits[2].material;
-    let limb = CylinderLimb { grid: *grid, ..CylinderLimb::default() };
+    let materials = scene_springs(fits, settings.anneal.seed).materials();
+    let limb = CylinderLimb { grid: model_grid, ..CylinderLimb::default() };
     let mut model = generate(&limb, &materials).map_err(|e| e.to_string())?;
     model.provenance.push(("fit.seed".into(), settings.anneal.seed.to_string()));
     model.provenance.push((
@@ -274,11 +384,17 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
         for a in &fit.achieved {
             model.provenance.push((p(a.name), format!("target {:e}, achieved {:e}", a.target, a.achieved)));
         }
+        if let Some(e) = curve_error(target, &fit.best_curve) {
+            model.provenance.push((
+                p("curve_error"),
+                format!("{}: RMS {:.4}, max {:.4} of the curve's RMS and peak", target.curve_label, e.rms, e.max),
+            ));
+        }
     }
-    let xml = opts.out.join(format!("limb_{}x{}_fitted.xml", grid.columns, grid.rows));
+    let xml = opts.out.join(format!("limb_{}_fitted.xml", grid_label(&model_grid)));
     lamina_core::io::write_model(&model, &xml).map_err(|e| format!("{}: {e}", xml.display()))?;
     println!(
-        "\nwritten to {}: the fitted model {}, iteration curves (CSV) and Fig. 10-style plots (PNG)",
+        "\nwritten to {}: the fitted model {}, iteration curves and curve errors (CSV) and Fig. 10-style plots (PNG)",
         opts.out.display(),
         xml.display()
     );

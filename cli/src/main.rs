@@ -122,7 +122,8 @@ enum Command {
         out: PathBuf,
     },
     /// Fits each layer's springs to measured tissue (virtual tensile test, bilinear
-    /// regression, simulated annealing), per grid size of the cylindrical limb.
+    /// regression, simulated annealing), per grid size of the cylindrical limb or for a
+    /// scene's limb, and measures each fitted layer against the tissue's own curve.
     Fit {
         /// Folder with skin.toml, fat.toml and muscle.toml. Default: ./config/materials when
         /// it exists, else the shipped targets built into this binary.
@@ -131,6 +132,11 @@ enum Command {
         /// Grid sizes of the limb to fit for, comma-separated WxH.
         #[arg(long, default_value = "39x10")]
         grid_sizes: String,
+        /// Scene files whose limb to fit for (repeatable): prints the `[model.springs]` table
+        /// to put in the scene, writes it as springs_NAME.toml, and says whether the scene's
+        /// springs match it. With --scene, --grid-sizes is only fitted when given.
+        #[arg(long)]
+        scene: Vec<PathBuf>,
         /// Grid whose fitted limb is written as XML (fitted too if not listed).
         #[arg(long, default_value = "39x10")]
         model_grid: String,
@@ -279,10 +285,15 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("{report}");
             Ok(())
         }
-        Command::Fit { materials, grid_sizes, model_grid, seed, max_evaluations, out } => {
-            let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
-            let model_grid = generate::parse_grid(&model_grid)?;
-            fit::fit(&fit::FitOptions { materials, grids, model_grid, seed, max_evaluations, out })
+        Command::Fit { materials, grid_sizes, scene, model_grid, seed, max_evaluations, out } => {
+            let grids_given = std::env::args().any(|a| a.starts_with("--grid-sizes") || a.starts_with("--model-grid"));
+            let (grids, model_grid) = if scene.is_empty() || grids_given {
+                let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
+                (grids, Some(generate::parse_grid(&model_grid)?))
+            } else {
+                (Vec::new(), None)
+            };
+            fit::fit(&fit::FitOptions { materials, grids, scenes: scene, model_grid, seed, max_evaluations, out })
         }
         Command::Demo { scene, seconds, out } => demo::demo(scene.as_deref(), seconds, &out),
         Command::Profile { scene, seconds, nodes, out } => {

@@ -116,6 +116,7 @@ fn anatomy(skin: PathBuf, fat_muscle: PathBuf, bone: PathBuf, min_layer: f64) ->
         bone,
         z_range: (0.0, 0.3),
         grid: GridSize::new(24, 4),
+        skin_fat: None,
         skin_thickness: 0.002,
         min_layer,
         materials: Materials::default(),

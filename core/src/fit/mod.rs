@@ -9,17 +9,23 @@
 //! 3. [`regression`]: the paper's bilinear regression (every point tried as turning point).
 //! 4. [`anneal`]: simulated annealing with a documented schedule and seed.
 //! 5. [`layer_fit`]: the objective ψ and one layer's fit, every evaluation's curve kept.
+//! 6. [`curve_error`]: the fitted layer against the tissue's own curve, point by point.
+//! 7. [`scene_fit`]: a scene's three layers, on the geometry of the limb it generates.
 
 pub mod anneal;
+pub mod curve_error;
 pub mod layer_fit;
 pub mod regression;
+pub mod scene_fit;
 pub mod targets;
 pub mod tensile;
 
 pub use anneal::{AnnealResult, AnnealSettings, AnnealStep, AnnealStop, anneal};
+pub use curve_error::{CurveError, curve_error};
 pub use layer_fit::{
     Achieved, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of, psi,
 };
 pub use regression::{BilinearFit, LineFit, bilinear_regression, line_fit};
-pub use targets::{TargetLaw, TargetsLoadError, TissueTargets};
+pub use scene_fit::{anatomy_geometry, cylinder_geometry, fit_layers, scene_geometry, scene_springs};
+pub use targets::{TargetCurve, TargetLaw, TargetsLoadError, TissueTargets};
 pub use tensile::{Specimen, TensileCurve, TensileTestError, tensile_test};

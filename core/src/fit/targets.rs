@@ -24,6 +24,21 @@ pub enum TargetLaw {
     },
 }
 
+/// The tissue's stress-strain curve the targets stand for: what the fitted layer's error is
+/// measured against, point by point (`[curve]` of a targets file).
+#[derive(Clone, Debug, PartialEq)]
+pub enum TargetCurve {
+    /// The targets' own law ([`TargetLaw`]): the source gives moduli, not a curve.
+    Law,
+    /// σ = (E0/α)(exp(α ε) − 1), the exponential law of passive muscle (Gras et al. 2012).
+    Exponential {
+        /// Modulus at zero strain, Pa.
+        e0_pa: f64,
+        /// Exponent, unitless.
+        alpha: f64,
+    },
+}
+
 /// One tissue's targets.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TissueTargets {
@@ -31,6 +46,11 @@ pub struct TissueTargets {
     pub name: String,
     /// What to reproduce.
     pub law: TargetLaw,
+    /// The curve the law stands for (default [`TargetCurve::Law`]).
+    pub curve: TargetCurve,
+    /// What the curve is, for tables and plot legends (e.g. "exponential law of Gras et
+    /// al. 2012, mu 30 kPa, alpha 20").
+    pub curve_label: String,
     /// The virtual tensile test loads up to about this strain, unitless.
     pub max_strain: f64,
     /// Weights `w_i` of the objective, one per target value (in [`TargetLaw`] field order).
@@ -51,6 +71,15 @@ impl TissueTargets {
                 ("final_modulus_pa", final_modulus_pa),
                 ("turn_strain", turn_strain),
             ],
+        }
+    }
+
+    /// Stress of the tissue's curve ([`TargetCurve`]) at `strain`, Pa: what the fitted
+    /// layer's pointwise error is measured against.
+    pub fn curve_stress_at(&self, strain: f64) -> f64 {
+        match self.curve {
+            TargetCurve::Law => self.stress_at(strain),
+            TargetCurve::Exponential { e0_pa, alpha } => e0_pa / alpha * (alpha * strain).exp_m1(),
         }
     }
 
@@ -127,8 +156,18 @@ struct RawTargets {
     turn_strain: Option<f64>,
     max_strain: f64,
     weights: Option<Vec<f64>>,
+    curve: Option<RawCurve>,
     #[serde(default)]
     sources: BTreeMap<String, String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCurve {
+    law: String,
+    e0_pa: Option<f64>,
+    alpha: Option<f64>,
+    label: String,
 }
 
 impl TissueTargets {
@@ -170,6 +209,24 @@ impl TissueTargets {
             return Err(value_err("reference_final_modulus_pa", "must be finite and positive"));
         }
         let max_strain = need(Some(raw.max_strain), "max_strain")?;
+        let exp_param = |v: Option<f64>, field: &str| {
+            v.filter(|x| x.is_finite() && *x > 0.0)
+                .ok_or_else(|| value_err(field, "required, finite and positive, when curve.law = \"exponential\""))
+        };
+        let (curve, curve_label) = match &raw.curve {
+            None => (TargetCurve::Law, format!("{} law of the targets", raw.law)),
+            Some(c) => match c.law.as_str() {
+                "exponential" => (
+                    TargetCurve::Exponential {
+                        e0_pa: exp_param(c.e0_pa, "curve.e0_pa")?,
+                        alpha: exp_param(c.alpha, "curve.alpha")?,
+                    },
+                    c.label.clone(),
+                ),
+                "targets" => (TargetCurve::Law, c.label.clone()),
+                _ => return Err(value_err("curve.law", "\"exponential\" or \"targets\"")),
+            },
+        };
         if let TargetLaw::Bilinear { turn_strain, .. } = law
             && turn_strain >= max_strain
         {
@@ -178,6 +235,8 @@ impl TissueTargets {
         let targets = Self {
             name: raw.name,
             law,
+            curve,
+            curve_label,
             max_strain,
             weights: Vec::new(),
             sources: raw.sources,
@@ -192,7 +251,8 @@ impl TissueTargets {
             // Every target ignored: the annealing would accept any springs.
             return Err(value_err("weights", "at least one weight must be positive"));
         }
-        for (key, _) in targets.values() {
+        let curve_key = (targets.curve != TargetCurve::Law).then_some("curve");
+        for key in targets.values().into_iter().map(|(k, _)| k).chain(curve_key) {
             if !targets.sources.contains_key(key) {
                 return Err(value_err("sources", &format!("no source given for {key}")));
             }

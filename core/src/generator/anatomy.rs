@@ -114,7 +114,12 @@ pub struct AnatomySpec {
     pub z_range: (f64, f64),
     /// W × H grid.
     pub grid: GridSize,
-    /// Skin thickness (the dermis bottom below the outer skin), m. Default 2 mm.
+    /// Skin/fat (dermis bottom) surface file, when segmented: the skin's thickness is then
+    /// taken from it along every ray. `None`: the dermis bottom is the outer skin offset
+    /// inward by `skin_thickness`.
+    pub skin_fat: Option<PathBuf>,
+    /// Skin thickness (the dermis bottom below the outer skin) when no `skin_fat` surface is
+    /// given, m. Default 2 mm.
     pub skin_thickness: f64,
     /// Thinnest fat or muscle layer allowed where surfaces do not nest, m. Default 1 mm.
     pub min_layer: f64,
@@ -125,7 +130,8 @@ pub struct AnatomySpec {
 /// What generation found, repaired and took.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AnatomyReport {
-    /// Loader reports of skin, fat/muscle boundary and bone (flipped triangles fixed, welding).
+    /// Loader reports of skin, fat/muscle boundary and bone, then the skin/fat surface when
+    /// given (flipped triangles fixed, welding).
     pub loads: Vec<(PathBuf, LoadReport)>,
     /// Centreline stations used.
     pub stations: usize,
@@ -208,6 +214,7 @@ pub fn generate_anatomy(
     let skin = load_one(&spec.skin)?;
     let fat_muscle = load_one(&spec.fat_muscle)?;
     let bone = load_one(&spec.bone)?;
+    let skin_fat = spec.skin_fat.as_deref().map(load_one).transpose()?;
     let t_load = t0.elapsed().as_secs_f64();
 
     let t1 = Instant::now();
@@ -232,7 +239,12 @@ pub fn generate_anatomy(
     let bb = skin.mesh.bounding_box();
     let reach = 2.0 * bb.map_or(1.0, |b| b.diagonal());
     let dermis = InwardOffset { surface: &skin_b, thickness: spec.skin_thickness, reach };
-    let dermis_nested = NestedBoundary::new(&dermis, 0.5 * spec.skin_thickness.min(spec.min_layer));
+    let dermis_mesh = skin_fat.as_ref().map(|m| MeshBoundary::new(&m.mesh));
+    let dermis_surface: &dyn BoundarySurface = match &dermis_mesh {
+        Some(m) => m,
+        None => &dermis,
+    };
+    let dermis_nested = NestedBoundary::new(dermis_surface, 0.5 * spec.skin_thickness.min(spec.min_layer));
     let fat_b = MeshBoundary::new(&fat_muscle.mesh);
     let bone_b = MeshBoundary::new(&bone.mesh);
     let fat_nested = NestedBoundary::new(&fat_b, spec.min_layer);
@@ -256,12 +268,16 @@ pub fn generate_anatomy(
             return Err(AnatomyGenerateError::TooManyRepairs { boundary, repaired, samples });
         }
     }
+    let mut loads = vec![
+        (spec.skin.clone(), skin.report),
+        (spec.fat_muscle.clone(), fat_muscle.report),
+        (spec.bone.clone(), bone.report),
+    ];
+    if let (Some(path), Some(m)) = (&spec.skin_fat, skin_fat) {
+        loads.push((path.clone(), m.report));
+    }
     let report = AnatomyReport {
-        loads: vec![
-            (spec.skin.clone(), skin.report),
-            (spec.fat_muscle.clone(), fat_muscle.report),
-            (spec.bone.clone(), bone.report),
-        ],
+        loads,
         stations: points.len(),
         skin_fat_repairs: (dermis_nested.missed.get(), dermis_nested.clamped.get()),
         fat_muscle_repairs: (fat_nested.missed.get(), fat_nested.clamped.get()),
@@ -272,7 +288,10 @@ pub fn generate_anatomy(
     model.provenance.push(("anatomy.fat_muscle".into(), spec.fat_muscle.display().to_string()));
     model.provenance.push(("anatomy.bone".into(), spec.bone.display().to_string()));
     model.provenance.push(("anatomy.z_range_m".into(), format!("{z0} {z1}")));
-    model.provenance.push(("anatomy.skin_thickness_m".into(), spec.skin_thickness.to_string()));
+    match &spec.skin_fat {
+        Some(p) => model.provenance.push(("anatomy.skin_fat".into(), p.display().to_string())),
+        None => model.provenance.push(("anatomy.skin_thickness_m".into(), spec.skin_thickness.to_string())),
+    }
     model.provenance.push((
         "anatomy.repairs".into(),
         format!(

@@ -51,7 +51,7 @@ mod materials;
 mod surface;
 mod table3;
 mod topology;
-mod vec3;
+pub(crate) mod vec3;
 
 pub use anatomy::{
     AnatomyGenerateError, AnatomyReport, AnatomySpec, MAX_REPAIR_FRACTION, MeshBoundary, NestedBoundary,

@@ -8,6 +8,7 @@ mod realtime_section;
 mod scene_file;
 mod section;
 mod solver_section;
+mod springs_section;
 mod tool_section;
 mod tool_settings;
 
@@ -16,4 +17,5 @@ pub use model_section::ModelSource;
 pub use realtime_section::{OverrunChoice, RealtimeSettings};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
+pub use springs_section::SceneSprings;
 pub use tool_settings::{ToolSettings, ToolSource};

@@ -2,6 +2,7 @@
 
 use super::layered_block::{BlockSpec, LayerMaterial};
 use super::section::FieldError;
+use super::springs_section::{RawSprings, SceneSprings, scene_springs};
 use crate::generator::{AnatomySpec, CylinderLimb, GridSize, Materials};
 use crate::yardstick::LatticeSize;
 use serde::Deserialize;
@@ -14,7 +15,7 @@ pub enum ModelSource {
     LayeredBlock(BlockSpec),
     /// The yardstick lattice.
     Yardstick(LatticeSize),
-    /// The generator's synthetic cylindrical limb (W columns × H rows, default materials).
+    /// The generator's synthetic cylindrical limb (W columns × H rows).
     CylinderLimb {
         /// Columns around.
         columns: u32,
@@ -22,6 +23,8 @@ pub enum ModelSource {
         rows: u32,
         /// Length, m.
         length: f64,
+        /// The fitted springs (`[model.springs]`); `None`: the generator's defaults.
+        springs: Option<SceneSprings>,
     },
     /// A model file (XML), path relative to the scene file.
     File(PathBuf),
@@ -44,6 +47,7 @@ pub(super) enum RawModel {
         columns: Option<u32>,
         rows: Option<u32>,
         length: Option<f64>,
+        springs: Option<RawSprings>,
     },
     File {
         path: PathBuf,
@@ -75,8 +79,10 @@ pub(super) struct RawAnatomy {
     z_range_mm: [f64; 2],
     columns: u32,
     rows: u32,
+    skin_fat: Option<PathBuf>,
     skin_thickness_mm: Option<f64>,
     min_layer_mm: Option<f64>,
+    springs: Option<RawSprings>,
 }
 
 /// The `[model]` table (`None`: absent, the default layered block); relative paths are
@@ -89,7 +95,9 @@ pub(super) fn model_source(raw: Option<RawModel>, base: &Path) -> Result<ModelSo
             LatticeSize::parse(&size)
                 .ok_or_else(|| FieldError::new("model.size", "small, medium, large or NXxNYxNZ"))?,
         ),
-        Some(RawModel::CylinderLimb { columns, rows, length }) => cylinder_limb(columns, rows, length)?,
+        Some(RawModel::CylinderLimb { columns, rows, length, springs }) => {
+            cylinder_limb(columns, rows, length, springs.map(scene_springs).transpose()?)?
+        }
         Some(RawModel::File { path }) => ModelSource::File(base.join(path)),
         Some(RawModel::Anatomy(raw)) => ModelSource::Anatomy(Box::new(anatomy(*raw, base)?)),
     })
@@ -123,14 +131,19 @@ fn layered_block(raw: RawBlock) -> Result<BlockSpec, FieldError> {
     Ok(s)
 }
 
-fn cylinder_limb(columns: Option<u32>, rows: Option<u32>, length: Option<f64>) -> Result<ModelSource, FieldError> {
+fn cylinder_limb(
+    columns: Option<u32>,
+    rows: Option<u32>,
+    length: Option<f64>,
+    springs: Option<SceneSprings>,
+) -> Result<ModelSource, FieldError> {
     let d = CylinderLimb::default();
     let (columns, rows) = (columns.unwrap_or(d.grid.columns), rows.unwrap_or(d.grid.rows));
     let length = length.unwrap_or(d.length);
     if !((3..=4096).contains(&columns) && (1..=4096).contains(&rows) && length.is_finite() && length > 0.0) {
         return Err(FieldError::new("model", "columns 3..=4096, rows 1..=4096, length finite and positive"));
     }
-    Ok(ModelSource::CylinderLimb { columns, rows, length })
+    Ok(ModelSource::CylinderLimb { columns, rows, length, springs })
 }
 
 fn anatomy(raw: RawAnatomy, base: &Path) -> Result<AnatomySpec, FieldError> {
@@ -155,11 +168,15 @@ fn anatomy(raw: RawAnatomy, base: &Path) -> Result<AnatomySpec, FieldError> {
         skin: base.join(raw.skin),
         fat_muscle: base.join(raw.fat_muscle),
         bone: base.join(raw.bone),
+        skin_fat: raw.skin_fat.map(|p| base.join(p)),
         z_range: (z[0] * 1e-3, z[1] * 1e-3),
         grid: GridSize::new(raw.columns, raw.rows),
         skin_thickness,
         min_layer,
-        materials: Materials::default(),
+        materials: match raw.springs {
+            Some(s) => scene_springs(s)?.materials(),
+            None => Materials::default(),
+        },
     })
 }
 
@@ -182,7 +199,12 @@ mod tests {
         let d = CylinderLimb::default();
         assert_eq!(
             parse("[model]\nkind = \"cylinder_limb\"\n"),
-            Ok(ModelSource::CylinderLimb { columns: d.grid.columns, rows: d.grid.rows, length: d.length })
+            Ok(ModelSource::CylinderLimb {
+                columns: d.grid.columns,
+                rows: d.grid.rows,
+                length: d.length,
+                springs: None
+            })
         );
         assert_eq!(
             parse("[model]\nkind = \"file\"\npath = \"limb.xml\"\n"),

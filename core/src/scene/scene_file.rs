@@ -229,13 +229,14 @@ impl Scene {
         let model = match &self.model {
             ModelSource::LayeredBlock(spec) => layered_block(spec),
             ModelSource::Yardstick(size) => lattice_model(*size),
-            ModelSource::CylinderLimb { columns, rows, length } => {
+            ModelSource::CylinderLimb { columns, rows, length, springs } => {
                 let spec = crate::generator::CylinderLimb {
                     grid: crate::generator::GridSize::new(*columns, *rows),
                     length: *length,
                     ..crate::generator::CylinderLimb::default()
                 };
-                crate::generator::generate(&spec, &crate::generator::Materials::default())
+                let materials = springs.map_or_else(crate::generator::Materials::default, |s| s.materials());
+                crate::generator::generate(&spec, &materials)
                     .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?
             }
             ModelSource::Anatomy(spec) => {
