@@ -3,7 +3,8 @@
 //! - the haptics process (`lamina-haptics`) with a scripted device pressing into the skin and
 //!   then grasping and pulling it (`config/trajectories/demo_press_pull.csv`, built in),
 //!   device loop at 4 kHz pinned to the first CPU;
-//! - the viewer (`lamina-viewer`, headless when there is no display) writing PNG frames.
+//! - the viewer (`lamina-viewer`): a window when there is a display, else headless writing PNG
+//!   frames.
 //!
 //! At exit, or on Ctrl-C (SIGINT) or SIGTERM, it stops the children in order (haptics, core,
 //! viewer), prints the cross-process profile (core deadlines, device-loop rate and jitter,
@@ -110,16 +111,18 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     }
     std::fs::create_dir_all(&frames_dir).map_err(|e| format!("{}: {e}", frames_dir.display()))?;
     let _ = lamina_rt::install_stop_handler(&STOP);
-    let headless = std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
+    // The viewer decides: a window when it can open one, else headless PNG frames (it says
+    // which in its log). Either way frames or screenshots (key S) go to `frames_dir`.
+    let display = [std::env::var_os("DISPLAY"), std::env::var_os("WAYLAND_DISPLAY")]
+        .iter()
+        .any(|d| d.as_ref().is_some_and(|d| !d.is_empty()));
     let haptics_args = haptics_args(scene)?;
 
     // The viewer first: it waits for the core and must not miss its topology.
     let mut viewer = Command::new(sibling("lamina-viewer")?);
     viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "5"]);
     viewer.arg("--frames").arg(format!("{}", (seconds * 60.0).max(10.0) as u64));
-    if headless {
-        viewer.arg("--headless").arg("--out").arg(&frames_dir);
-    }
+    viewer.arg("--out").arg(&frames_dir);
     if let Some(s) = scene {
         viewer.arg("--scene").arg(s);
     }
@@ -183,7 +186,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
         } else {
             "off: the scene has no haptics tool"
         },
-        if headless { "headless, no display found" } else { "window" }
+        if display { "a window on this display" } else { "headless, no display found" }
     );
     println!(
         "writing to {} (frames in {}{}); Ctrl-C stops it early",

@@ -23,6 +23,7 @@
 use std::time::Instant;
 
 use crate::camera::{Camera, bounds, default_view};
+use crate::controls::{CUT_STEP_FRACTION, ViewState, key_list_lines};
 use crate::cut::CutPlane;
 use crate::mesh_build::{MeshBuilder, MeshOptions, SpringDisplay};
 use crate::overlay::{FlatVertex, Overlay, rgba};
@@ -31,7 +32,7 @@ use crate::render::{
 };
 use crate::scene_mesh::SceneMesh;
 use crate::timing::{FrameTiming, elapsed_ns};
-use crate::view_model::{Frame, ViewModel};
+use crate::view_model::{Frame, TissueSet, ViewModel};
 
 /// How the viewer draws. `Default`: 320 × 240, 4× MSAA, paper's φ, cut on, springs on the
 /// removed side, overlay on.
@@ -69,6 +70,11 @@ pub struct Hud {
 pub struct Composer {
     model: Option<ViewModel>,
     view: Option<(Camera, Option<CutPlane>)>,
+    /// The default cut plane (whether or not it is on) and the model's extent along its
+    /// normal, `(min, max)` of `normal · p`, metres.
+    plane: Option<(CutPlane, f32, f32)>,
+    /// The cut plane of the last composed frame.
+    cut: Option<CutPlane>,
     builder: MeshBuilder,
     /// The last tessellated mesh.
     pub mesh: SceneMesh,
@@ -83,6 +89,7 @@ impl Composer {
     pub fn set_model(&mut self, model: ViewModel) {
         self.model = Some(model);
         self.view = None;
+        self.plane = None;
     }
 
     /// The current model.
@@ -98,17 +105,53 @@ impl Composer {
     /// Tessellates `frame` and builds the 2-D layer for a `width × height` image; returns
     /// the tessellation time, ns.
     pub fn compose(&mut self, frame: &Frame, options: &ViewerOptions, width: u32, height: u32, hud: &Hud) -> u64 {
+        self.compose_with(frame, options, width, height, hud, None)
+    }
+
+    /// As [`Composer::compose`], with the user's choices (`None`: `options` alone): layers
+    /// hidden, cut plane on or off and moved, wireframe, key list.
+    pub fn compose_with(
+        &mut self,
+        frame: &Frame,
+        options: &ViewerOptions,
+        width: u32,
+        height: u32,
+        hud: &Hud,
+        state: Option<&ViewState>,
+    ) -> u64 {
         let start = Instant::now();
         let aspect = width as f32 / height.max(1) as f32;
         if let Some(model) = &self.model {
+            let nodes = &frame.positions[..model.node_count.min(frame.positions.len())];
             if self.view.is_none()
-                && let Some((min, max)) = bounds(&frame.positions[..model.node_count.min(frame.positions.len())])
+                && let Some((min, max)) = bounds(nodes)
             {
                 let (camera, cut) = default_view(min, max, aspect);
                 self.view = Some((camera, options.cut.then_some(cut)));
+                let along = nodes.iter().map(|&p| cut.normal.dot(p));
+                let (lo, hi) = along.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
+                self.plane = Some((cut, lo, hi));
             }
             let mut mesh_options = options.mesh;
-            mesh_options.cut = self.view.and_then(|v| v.1);
+            self.cut = match state {
+                None => self.view.and_then(|v| v.1),
+                Some(state) => self.plane.filter(|_| state.cut).map(|(plane, lo, hi)| {
+                    let step = (hi - lo) * CUT_STEP_FRACTION;
+                    let offset = (plane.offset + step * state.cut_steps as f32).clamp(lo, hi);
+                    CutPlane { normal: plane.normal, offset }
+                }),
+            };
+            mesh_options.cut = self.cut;
+            if let Some(state) = state {
+                let mut hidden = TissueSet::default();
+                for (k, tissue) in model.layers().into_iter().enumerate() {
+                    if state.layer_hidden(k) {
+                        hidden.toggle(tissue);
+                    }
+                }
+                mesh_options.hidden = hidden;
+                mesh_options.wireframe = state.wireframe;
+            }
             if mesh_options.cut.is_none() && mesh_options.springs == SpringDisplay::RemovedSide {
                 mesh_options.springs = SpringDisplay::Off;
             }
@@ -123,8 +166,16 @@ impl Composer {
             layer.panel(&hud.lines);
             layer.legend();
         }
+        if state.is_some_and(|s| s.help) {
+            layer.centred_panel(&key_list_lines());
+        }
         self.overlay.clone_from(&layer.vertices);
         tessellate_ns
+    }
+
+    /// The cut plane of the last composed frame (`None`: no cut).
+    pub fn cut(&self) -> Option<CutPlane> {
+        self.cut
     }
 
     /// The inputs of [`Renderer::draw`] for the last composed frame (`None` before a view).

@@ -16,7 +16,7 @@ use glam::Vec3;
 use crate::bezier::{CellLayout, Patch};
 use crate::material::Material;
 use crate::scene_mesh::{LitVertex, SceneMesh};
-use crate::view_model::Tissue;
+use crate::view_model::{Tissue, TissueSet};
 
 /// A cutting plane: points with `normal · p > offset` are removed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -137,7 +137,15 @@ pub fn end_loop(grid: &CellLayout, patches: &[Patch], end: End, samples_per_cell
 /// Appends the cut faces between nested `loops` (outermost first, each with the tissue beneath
 /// it) to `mesh`. `closed` joins the last point to the first; `normal` is the face normal;
 /// `clip` says whether the faces are themselves subject to the cut plane in the shader.
-pub fn fill_section(loops: &[(Tissue, SectionLoop)], closed: bool, normal: Vec3, clip: bool, mesh: &mut SceneMesh) {
+/// Bands of `hidden` tissues are left open.
+pub fn fill_section(
+    loops: &[(Tissue, SectionLoop)],
+    closed: bool,
+    normal: Vec3,
+    clip: bool,
+    hidden: TissueSet,
+    mesh: &mut SceneMesh,
+) {
     let Some(len) = loops.first().map(|l| l.1.len()) else { return };
     if loops.iter().any(|l| l.1.len() != len) || len < 2 {
         return;
@@ -155,10 +163,15 @@ pub fn fill_section(loops: &[(Tissue, SectionLoop)], closed: bool, normal: Vec3,
                 let centroid = present.iter().copied().sum::<Vec3>() / present.len() as f32;
                 let core: SectionLoop = outer.iter().map(|p| p.map(|p| centroid.lerp(p, 0.55))).collect();
                 let marrow = if *tissue == Tissue::Bone { Material::marrow() } else { Material::cut_face(*tissue) };
-                fan(&core, centroid, segments, normal, marrow, clip, mesh);
+                if !hidden.contains(*tissue) {
+                    fan(&core, centroid, segments, normal, marrow, clip, mesh);
+                }
                 core
             }
         };
+        if hidden.contains(*tissue) {
+            continue;
+        }
         band(outer, &inner, segments, normal, Material::cut_face(*tissue), clip, mesh);
     }
 }

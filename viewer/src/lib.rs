@@ -1,6 +1,6 @@
 //! Lamina's viewer: subscribes to the core's `topology` and `nodes` over iceoryx2 (or runs a
-//! built-in animated limb) and draws the layered tissue with wgpu, in a window (feature
-//! `window`) or headless into PNG files.
+//! built-in animated limb) and draws the layered tissue with wgpu, in a window ([`window`],
+//! with the mouse and key bindings of [`controls`]) or headless into PNG files.
 //!
 //! # How a frame is made
 //! 1. [`source`] yields the model once and then frames (node positions, tool, core stats).
@@ -8,7 +8,8 @@
 //!    bi-quartic Bézier patches ([`bezier`], Eqs. 2-4), adds the cut faces ([`cut`]), the
 //!    spring wireframe and the tool.
 //! 3. [`render`] draws it with [`material`]s per tissue, under the [`overlay`] text, from the
-//!    fixed [`camera`]; [`app`] strings the steps together and [`timing`] measures them.
+//!    [`camera`] (fixed from the first frame, moved by the user in the window); [`app`]
+//!    strings the steps together and [`timing`] measures them.
 //!
 //! Architecture invariant: the viewer only subscribes. Starting, stopping, hanging or crashing
 //! it never delays the core (the bridge's publishers do not wait for subscribers).
@@ -16,6 +17,7 @@
 pub mod app;
 pub mod bezier;
 pub mod camera;
+pub mod controls;
 pub mod cut;
 pub mod material;
 pub mod mesh_build;
@@ -27,5 +29,4 @@ pub mod source;
 pub mod synthetic;
 pub mod timing;
 pub mod view_model;
-#[cfg(feature = "window")]
 pub mod window;

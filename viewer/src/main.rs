@@ -3,7 +3,7 @@
 //! ```text
 //! lamina-viewer --headless --synthetic --frames 60 --out frames/      # no core needed
 //! lamina-viewer --headless --frames 300 --every 10 --out frames/      # live core, prefix lamina
-//! lamina-viewer --synthetic                                           # window (feature `window`)
+//! lamina-viewer --synthetic                                           # window (headless without a display)
 //! ```
 
 use std::path::PathBuf;
@@ -36,15 +36,29 @@ struct Args {
     /// iceoryx2 service prefix of the simulation (as given to the core).
     #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
     prefix: String,
-    /// Render offscreen and write PNG frames instead of opening a window.
+    /// Render offscreen and write PNG frames instead of opening a window (the default when
+    /// there is no display or no window can be opened).
     #[arg(long)]
     headless: bool,
     /// Stop after this many frames (default: run until SIGINT/SIGTERM).
     #[arg(long)]
     frames: Option<u64>,
-    /// Directory for PNG frames (headless). Without it no files are written.
+    /// Directory for PNG frames (headless; without it no frames are written) and for the
+    /// window's screenshots (key S; default: the current directory).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Once this many frames were drawn, write the image to --screenshot and exit.
+    #[arg(long, requires = "screenshot")]
+    screenshot_after_frames: Option<u64>,
+    /// PNG file for --screenshot-after-frames.
+    #[arg(long, requires = "screenshot_after_frames")]
+    screenshot: Option<PathBuf>,
+    /// Scripted mouse and key input for the window, through the same code as real input:
+    /// steps `FRAME:key:NAME`, `FRAME:wheel:NOTCHES` or `FRAME:drag:BUTTON:DX:DY` separated by
+    /// `;` (BUTTON left, right, middle or shift-left), applied once FRAME frames were drawn.
+    /// Example: `2:key:1;3:drag:left:120:-40;4:wheel:2`.
+    #[arg(long)]
+    script: Option<String>,
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
@@ -182,11 +196,13 @@ impl Figures {
     }
 }
 
-fn run_headless(args: &Args) -> Result<(), String> {
+fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
-    let mut source = open_source(args)?;
+    if args.script.is_some() {
+        return Err("--script drives the window; it needs a display".into());
+    }
     let mut viewer = HeadlessViewer::new(options(args)).map_err(|e| e.to_string())?;
     println!("lamina-viewer: {} on {}, {}x{}", source.describe(), viewer.adapter(), args.size.0, args.size.1);
     let every = args.every.max(1);
@@ -240,6 +256,15 @@ fn run_headless(args: &Args) -> Result<(), String> {
                     let path = dir.join(format!("frame_{rendered:05}.png"));
                     write_png(&path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
                 }
+                if let (Some(n), Some(path)) = (args.screenshot_after_frames, &args.screenshot)
+                    && rendered + 1 >= n
+                {
+                    let (w, h) = viewer.size();
+                    write_png(path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
+                    println!("screenshot after {} frames: {}", rendered + 1, path.display());
+                    rendered += 1;
+                    break;
+                }
                 figures.times.push(&timing, elapsed_ns(start));
                 let stats = viewer.composer().mesh.stats;
                 if verbose || last_report.elapsed() >= Duration::from_secs(1) {
@@ -281,8 +306,7 @@ static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(
 fn main() -> ExitCode {
     let args = Args::parse();
     let _ = lamina_rt::install_stop_handler(&STOP);
-    let result = if args.headless { run_headless(&args) } else { run_window(&args) };
-    match result {
+    match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("lamina-viewer: {e}");
@@ -291,13 +315,52 @@ fn main() -> ExitCode {
     }
 }
 
-#[cfg(feature = "window")]
-fn run_window(args: &Args) -> Result<(), String> {
-    let source = open_source(args)?;
-    lamina_viewer::window::run(source, options(args), args.frames).map_err(|e| e.to_string())
+/// Where headless frames go, for the one line that says the viewer runs headless.
+fn frames_destination(args: &Args) -> String {
+    match &args.out {
+        Some(dir) => format!("PNG frames into {}", dir.display()),
+        None => "no frames written (no --out)".into(),
+    }
 }
 
-#[cfg(not(feature = "window"))]
-fn run_window(_args: &Args) -> Result<(), String> {
-    Err("this build has no window (build with `--features window`); use --headless".into())
+/// A window when there is a display and one can be opened, else headless (saying why).
+fn run(args: &Args) -> Result<(), String> {
+    use lamina_viewer::window::{self, WindowOptions, WindowRunError};
+    if args.headless {
+        return run_headless(args, open_source(args)?.as_mut());
+    }
+    let no_display = std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty())
+        && std::env::var_os("WAYLAND_DISPLAY").is_none_or(|d| d.is_empty());
+    if no_display {
+        println!(
+            "lamina-viewer: no display (DISPLAY and WAYLAND_DISPLAY unset): headless, {}",
+            frames_destination(args)
+        );
+        return run_headless(args, open_source(args)?.as_mut());
+    }
+    let event_loop = match window::event_loop() {
+        Ok(event_loop) => event_loop,
+        Err(e) => {
+            println!("lamina-viewer: {e}: headless, {}", frames_destination(args));
+            return run_headless(args, open_source(args)?.as_mut());
+        }
+    };
+    let script = match &args.script {
+        Some(text) => lamina_viewer::controls::parse_script(text, (args.size.0 as f32, args.size.1 as f32))?,
+        None => Vec::new(),
+    };
+    let window_options = WindowOptions {
+        frames: args.frames,
+        out_dir: args.out.clone(),
+        screenshot_after: args.screenshot_after_frames.zip(args.screenshot.clone()),
+        script,
+    };
+    let mut source = open_source(args)?;
+    match window::run(event_loop, source.as_mut(), options(args), window_options) {
+        Err(WindowRunError::Setup(e)) => {
+            println!("lamina-viewer: cannot set up the window ({e}): headless, {}", frames_destination(args));
+            run_headless(args, source.as_mut())
+        }
+        other => other.map_err(|e| e.to_string()),
+    }
 }

@@ -19,7 +19,7 @@ use crate::bezier::{CellLayout, GridSurface, PHI, Patch, subdivisions_with_phi};
 use crate::cut::{CutPlane, End, SectionLoop, end_loop, fill_section, loop_normal, section_loop};
 use crate::material::Material;
 use crate::scene_mesh::{LineVertex, LitVertex, SceneMesh};
-use crate::view_model::{Frame, Tissue, ToolPose, ViewModel};
+use crate::view_model::{Frame, Tissue, TissueSet, ToolPose, ViewModel};
 use bytemuck::Zeroable;
 
 /// Which springs to draw as lines.
@@ -50,6 +50,12 @@ pub struct MeshOptions {
     /// How far the removed side's springs are moved away from the cut, along its normal, m,
     /// so the wireframe does not hide the cross-section (an exploded view). Default 0.03.
     pub explode: f32,
+    /// Tissues not drawn: their surfaces, cut faces and springs. When the skin is hidden the
+    /// outermost shown boundary of a closed limb is drawn as a surface instead. Default none.
+    pub hidden: TissueSet,
+    /// Draw the edges of the triangles (tessellation, cut faces, tool) as lines instead of
+    /// filled surfaces. Default false.
+    pub wireframe: bool,
 }
 
 impl Default for MeshOptions {
@@ -61,6 +67,8 @@ impl Default for MeshOptions {
             section_samples: 8,
             end_caps: true,
             explode: 0.03,
+            hidden: TissueSet::default(),
+            wireframe: false,
         }
     }
 }
@@ -95,9 +103,15 @@ impl MeshBuilder {
         // caps, which are built from their patches: their own surfaces are not drawn. Drawn,
         // the approximating patches of a deeper grid (sampled half a cell apart from the
         // skin's, 2 mm beneath it) could poke through a sharply bent skin.
+        let grid_tissue = |g: usize| if g == 0 { Tissue::Skin } else { model.grids[g].beneath };
+        let outermost_shown = (0..model.grids.len()).find(|&g| !opts.hidden.contains(grid_tissue(g))).unwrap_or(0);
         let enclosed = |g: usize| {
             let outer = &model.grids[0];
-            g > 0 && opts.end_caps && outer.wrap && model.grids[g].wrap && model.grids[g].cols == outer.cols
+            (g > outermost_shown || opts.hidden.contains(grid_tissue(g)))
+                && opts.end_caps
+                && outer.wrap
+                && model.grids[g].wrap
+                && model.grids[g].cols == outer.cols
         };
         for (g, grid) in model.grids.iter().enumerate() {
             self.points.clear();
@@ -111,7 +125,12 @@ impl MeshBuilder {
                 }
                 continue;
             }
-            let material = Material::of(if g == 0 { Tissue::Skin } else { grid.beneath });
+            let material = Material::of(grid_tissue(g));
+            if opts.hidden.contains(grid_tissue(g)) {
+                // Hidden, and not part of a closed limb's section: nothing to keep.
+                self.patches[g].clear();
+                continue;
+            }
             let (sum, max) = tessellate(&surface, &mut self.patches[g], material, opts.phi, out);
             count_sum += sum;
             out.stats.max_counts = (out.stats.max_counts.0.max(max.0), out.stats.max_counts.1.max(max.1));
@@ -119,13 +138,16 @@ impl MeshBuilder {
         if out.stats.patches > 0 {
             out.stats.mean_quads_per_patch = count_sum as f32 / out.stats.patches as f32;
         }
-        for surface in &model.triangle_surfaces {
+        for surface in model.triangle_surfaces.iter().filter(|s| !opts.hidden.contains(s.tissue)) {
             self.smooth_triangles(pos, &surface.triangles, Material::of(surface.tissue), out);
         }
         self.sections(model, opts, out);
         springs(model, pos, opts, out);
         if let Some(tool) = frame.tool {
             add_tool(&tool, out);
+        }
+        if opts.wireframe {
+            to_wireframe(out);
         }
         out.stats.triangles = out.indices.len() / 3;
         out.stats.lines = out.lines.len() / 2;
@@ -156,11 +178,14 @@ impl MeshBuilder {
         };
         if let Some(plane) = opts.cut {
             let loops = loops_with(&|grid, patches| section_loop(grid, patches, &plane, samples, 6));
-            fill_section(&loops, outer.wrap, plane.normal, false, out);
+            fill_section(&loops, outer.wrap, plane.normal, false, opts.hidden, out);
             // Dark outlines where the boundaries meet the cut, lifted off the face slightly.
             let lift = plane.normal * 2.0e-4;
             let outline = [0.06, 0.025, 0.02, 0.9];
-            for (_, lp) in &loops {
+            for (tissue, lp) in &loops {
+                if opts.hidden.contains(*tissue) {
+                    continue;
+                }
                 let n = lp.len();
                 let segments = if outer.wrap { n } else { n.saturating_sub(1) };
                 for i in 0..segments {
@@ -175,7 +200,7 @@ impl MeshBuilder {
             for end in [End::First, End::Last] {
                 let loops = loops_with(&|grid, patches| end_loop(grid, patches, end, samples));
                 let normal = loops.first().map_or(Vec3::Z, |l| loop_normal(&l.1));
-                fill_section(&loops, outer.wrap, normal, true, out);
+                fill_section(&loops, outer.wrap, normal, true, opts.hidden, out);
             }
         }
     }
@@ -302,12 +327,36 @@ fn springs(model: &ViewModel, pos: &[Vec3], opts: &MeshOptions, out: &mut SceneM
                 .removed_part(pa, pb)
                 .map(|(p, q)| (p + plane.normal * opts.explode, q + plane.normal * opts.explode)),
         };
+        if opts.hidden.contains(model.spring_tissue[s]) {
+            continue;
+        }
         if let Some((p, q)) = seg {
             let color = Material::spring_rgba(model.spring_tissue[s]);
             out.lines.push(LineVertex { position: p.to_array(), color });
             out.lines.push(LineVertex { position: q.to_array(), color });
         }
     }
+}
+
+/// Replaces the filled triangles of `out` by their edges (each shared edge once), drawn in
+/// the triangles' colours, opaque.
+fn to_wireframe(out: &mut SceneMesh) {
+    let mut edges: Vec<(u32, u32)> = out
+        .indices
+        .chunks_exact(3)
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    for (a, b) in edges {
+        for v in [a, b] {
+            let v = &out.vertices[v as usize];
+            let [r, g, b, _] = v.color;
+            out.lines.push(LineVertex { position: v.position, color: [r, g, b, 1.0] });
+        }
+    }
+    out.indices.clear();
 }
 
 /// The haptic tool: a steel ball on a shaft leaning back toward the viewer's upper side.
@@ -439,6 +488,41 @@ mod tests {
             assert!(mesh.vertices.iter().any(|v| v.color == color && v.params[1] == 0.0), "no cut face of {tissue:?}");
         }
         assert!(mesh.lines.len() > 100, "springs on the removed side are drawn");
+    }
+
+    #[test]
+    fn hidden_skin_shows_the_fat_surface_and_no_skin_works() {
+        let mut hidden = TissueSet::default();
+        hidden.toggle(Tissue::Skin);
+        let cut = Some(crate::cut::CutPlane::through(glam::Vec3::new(0.05, 0.0, 0.0), glam::Vec3::X));
+        let (model, mesh) = limb_mesh(0.5, &MeshOptions { hidden, cut, ..MeshOptions::default() });
+        let colour = |m: Material| m.linear_rgba();
+        let used = |c: [f32; 4]| mesh.vertices.iter().any(|v| v.color == c);
+        assert!(!used(colour(Material::of(Tissue::Skin))), "skin surface drawn");
+        assert!(!used(colour(Material::cut_face(Tissue::Skin))), "skin cut face drawn");
+        assert!(used(colour(Material::of(Tissue::Fat))), "the fat surface replaces the skin");
+        assert!(used(colour(Material::cut_face(Tissue::Muscle))));
+        assert!(!used(colour(Material::of(Tissue::Muscle))), "muscle stays inside the fat");
+        let skin_springs = Material::spring_rgba(Tissue::Skin);
+        assert!(mesh.lines.iter().all(|l| l.color != skin_springs), "skin springs drawn");
+        assert!(!model.springs.is_empty());
+    }
+
+    #[test]
+    fn wireframe_draws_each_triangle_edge_once_works() {
+        let limb = SyntheticLimb::default();
+        let model = limb.view_model();
+        let frame = limb.frame(0, 0.5);
+        let opts = MeshOptions { springs: SpringDisplay::Off, ..MeshOptions::default() };
+        let mut filled = SceneMesh::default();
+        MeshBuilder::new().build(&model, &frame, &opts, &mut filled);
+        let mut wire = SceneMesh::default();
+        MeshBuilder::new().build(&model, &frame, &MeshOptions { wireframe: true, ..opts }, &mut wire);
+        assert!(wire.indices.is_empty());
+        // Every triangle has three edges; in a closed or nearly closed surface each edge is
+        // shared by two triangles, so there are between 1.5 and 3 edges per triangle.
+        let (edges, triangles) = (wire.lines.len() / 2, filled.indices.len() / 3);
+        assert!(edges * 2 >= triangles * 3 && edges <= triangles * 3, "{edges} edges, {triangles} triangles");
     }
 
     #[test]

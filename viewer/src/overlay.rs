@@ -17,9 +17,22 @@ pub struct FlatVertex {
     pub color: [f32; 4],
 }
 
-/// Glyph rows (5 bits each, most significant bit left), top to bottom.
+/// Glyph rows (5 bits each, most significant bit left), top to bottom. Characters without a
+/// glyph are drawn as `?`.
 fn glyph(c: char) -> [u8; 7] {
-    match c.to_ascii_uppercase() {
+    known_glyph(c).unwrap_or(QUESTION_MARK)
+}
+
+const QUESTION_MARK: [u8; 7] = [0x0E, 0x11, 0x01, 0x02, 0x04, 0, 0x04];
+
+/// Whether the built-in font draws `c` (letters in either case, digits, space and
+/// `. , : / % - + = ( ) _ [ ] ? ' < > *`).
+pub fn has_glyph(c: char) -> bool {
+    known_glyph(c).is_some()
+}
+
+fn known_glyph(c: char) -> Option<[u8; 7]> {
+    Some(match c.to_ascii_uppercase() {
         '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
         '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
         '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
@@ -68,8 +81,15 @@ fn glyph(c: char) -> [u8; 7] {
         '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
         ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
         '_' => [0, 0, 0, 0, 0, 0, 0x1F],
-        _ => [0x0E, 0x11, 0x01, 0x02, 0x04, 0, 0x04], // '?'
-    }
+        '[' => [0x0E, 0x08, 0x08, 0x08, 0x08, 0x08, 0x0E],
+        ']' => [0x0E, 0x02, 0x02, 0x02, 0x02, 0x02, 0x0E],
+        '\'' => [0x04, 0x04, 0x08, 0, 0, 0, 0],
+        '<' => [0x02, 0x04, 0x08, 0x10, 0x08, 0x04, 0x02],
+        '>' => [0x08, 0x04, 0x02, 0x01, 0x02, 0x04, 0x08],
+        '*' => [0, 0x04, 0x15, 0x0E, 0x15, 0x04, 0],
+        '?' => QUESTION_MARK,
+        _ => return None,
+    })
 }
 
 /// Builds the 2-D layer for an image of `width × height` pixels.
@@ -159,13 +179,31 @@ impl Overlay {
     /// A translucent panel with `lines` of text at the top-left corner.
     pub fn panel(&mut self, lines: &[String]) {
         let pad = 4.0 * self.scale;
+        self.panel_at(pad, pad, lines, 0.45);
+    }
+
+    /// A translucent panel (background `alpha`) with `lines` of text, its top-left corner at
+    /// `(x, y)` pixels; returns its width and height.
+    pub fn panel_at(&mut self, x: f32, y: f32, lines: &[String], alpha: f32) -> (f32, f32) {
+        let pad = 4.0 * self.scale;
         let width = lines.iter().map(|l| self.text_width(l)).fold(0.0, f32::max) + 2.0 * pad;
         let height = lines.len() as f32 * self.line_height() + 2.0 * pad - 3.0 * self.scale;
-        self.rect(pad, pad, width, height, [0.0, 0.0, 0.0, 0.45]);
+        self.rect(x, y, width, height, [0.0, 0.0, 0.0, alpha]);
         let ink = rgba([0.92, 0.95, 0.97], 1.0);
         for (i, line) in lines.iter().enumerate() {
-            self.text(2.0 * pad, 2.0 * pad + i as f32 * self.line_height(), line, ink);
+            self.text(x + pad, y + pad + i as f32 * self.line_height(), line, ink);
         }
+        (width, height)
+    }
+
+    /// A panel of `lines` centred in the image (the key list).
+    pub fn centred_panel(&mut self, lines: &[String]) {
+        let pad = 4.0 * self.scale;
+        let width = lines.iter().map(|l| self.text_width(l)).fold(0.0, f32::max) + 2.0 * pad;
+        let height = lines.len() as f32 * self.line_height() + 2.0 * pad - 3.0 * self.scale;
+        let x = ((self.width - width) * 0.5).max(0.0).floor();
+        let y = ((self.height - height) * 0.5).max(0.0).floor();
+        self.panel_at(x, y, lines, 0.7);
     }
 
     /// Colour swatches and names of the tissues along the bottom-left edge.

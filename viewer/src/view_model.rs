@@ -36,6 +36,37 @@ pub fn tissue_beneath_boundary(name: &str) -> Tissue {
     }
 }
 
+/// A set of tissues (e.g. the layers the user has hidden). `Default`: empty.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TissueSet(u8);
+
+impl TissueSet {
+    fn bit(tissue: Tissue) -> u8 {
+        match tissue {
+            Tissue::Skin => 1,
+            Tissue::Fat => 2,
+            Tissue::Muscle => 4,
+            Tissue::Bone => 8,
+            Tissue::Other => 16,
+        }
+    }
+
+    /// Whether `tissue` is in the set.
+    pub fn contains(self, tissue: Tissue) -> bool {
+        self.0 & Self::bit(tissue) != 0
+    }
+
+    /// Adds `tissue` if absent, removes it if present.
+    pub fn toggle(&mut self, tissue: Tissue) {
+        self.0 ^= Self::bit(tissue);
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+}
+
 /// A tissue boundary sampled on a regular grid (the surfaces the paper re-patches).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoundaryGrid {
@@ -93,6 +124,20 @@ impl ViewModel {
         }) && self.triangle_surfaces.iter().all(|s| s.triangles.iter().flatten().all(|&i| i < n))
             && self.springs.iter().flatten().all(|&i| i < n)
             && self.springs.len() == self.spring_tissue.len()
+    }
+
+    /// The model's layers as the user toggles them (keys `1`, `2`, …): the tissues of its
+    /// boundary grids, outermost first (the outer skin surface counts as skin), then those of
+    /// its other surfaces, each once. The default limb: skin, fat, muscle, bone.
+    pub fn layers(&self) -> Vec<Tissue> {
+        let grids = self.grids.iter().enumerate().map(|(g, grid)| if g == 0 { Tissue::Skin } else { grid.beneath });
+        let mut out: Vec<Tissue> = Vec::new();
+        for t in grids.chain(self.triangle_surfaces.iter().map(|s| s.tissue)) {
+            if !out.contains(&t) {
+                out.push(t);
+            }
+        }
+        out
     }
 
     /// Builds the view of a core model: every surface with a grid becomes a [`BoundaryGrid`]
@@ -224,6 +269,23 @@ mod tests {
         // The default limb's skin grid closes around its axis.
         assert_eq!((skin.name.as_str(), skin.beneath, skin.wrap), ("skin_outer", Tissue::Skin, true));
         assert_eq!(view.grids.len(), 4, "skin, skin/fat, fat/muscle and muscle/bone boundaries");
+    }
+
+    #[test]
+    fn layers_of_the_default_scene_works() {
+        let model = lamina_core::scene::Scene::builtin_default().build_model().expect("built-in scene builds");
+        let view = ViewModel::from_core_model(&model);
+        assert_eq!(view.layers(), [Tissue::Skin, Tissue::Fat, Tissue::Muscle, Tissue::Bone]);
+    }
+
+    #[test]
+    fn tissue_set_toggles_works() {
+        let mut set = TissueSet::default();
+        assert!(set.is_empty());
+        set.toggle(Tissue::Fat);
+        assert!(set.contains(Tissue::Fat) && !set.contains(Tissue::Skin));
+        set.toggle(Tissue::Fat);
+        assert!(set.is_empty());
     }
 
     #[test]
