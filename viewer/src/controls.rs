@@ -43,6 +43,7 @@ pub const BINDINGS: &[Binding] = &[
     Binding { input: "left drag", action: "orbit around the model centre" },
     Binding { input: "right or middle drag, shift + left drag", action: "pan" },
     Binding { input: "wheel", action: "zoom toward or away from the centre" },
+    Binding { input: "ctrl + left drag", action: "grab the skin under the cursor and pull it (live core)" },
     Binding { input: "R", action: "reset the view" },
     Binding { input: "1 2 3 4", action: "show or hide layer 1..4 (skin, fat, muscle, bone)" },
     Binding { input: "C", action: "cut plane on or off" },
@@ -101,12 +102,18 @@ pub enum Input {
 }
 
 /// What the window must do after an input (besides drawing the new view state).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Effect {
     /// Write a screenshot.
     Screenshot,
     /// Close the window.
     Quit,
+    /// Ctrl + left button pressed at `(x, y)` pixels: pick a skin node and grasp it.
+    GrabStart(f32, f32),
+    /// The grasping cursor moved to `(x, y)` pixels.
+    GrabMove(f32, f32),
+    /// The grasping button was released: let go.
+    GrabEnd,
 }
 
 /// What the user chose to see. `Default`: initial camera (set when the first frame fixes
@@ -147,6 +154,7 @@ impl ViewState {
 enum Drag {
     Orbit,
     Pan,
+    Grab,
 }
 
 /// Turns inputs into view changes; see the module docs.
@@ -169,24 +177,38 @@ impl Controls {
             Input::Modifiers { shift, ctrl } => (self.shift, self.ctrl) = (*shift, *ctrl),
             Input::Button(button, true) => {
                 let mode = match button {
+                    Button::Left if self.ctrl => Drag::Grab,
                     Button::Left if self.shift => Drag::Pan,
                     Button::Left => Drag::Orbit,
                     Button::Right | Button::Middle => Drag::Pan,
                 };
                 self.drag = Some((*button, mode));
+                if mode == Drag::Grab {
+                    let (x, y) = self.cursor.unwrap_or((viewport.0 * 0.5, viewport.1 * 0.5));
+                    return Some(Effect::GrabStart(x, y));
+                }
             }
             Input::Button(button, false) => {
-                if self.drag.is_some_and(|(b, _)| b == *button) {
+                if let Some((b, mode)) = self.drag
+                    && b == *button
+                {
                     self.drag = None;
+                    if mode == Drag::Grab {
+                        return Some(Effect::GrabEnd);
+                    }
                 }
             }
             Input::Cursor(x, y) => {
                 let last = self.cursor.replace((*x, *y));
+                if self.drag.is_some_and(|(_, mode)| mode == Drag::Grab) {
+                    return Some(Effect::GrabMove(*x, *y));
+                }
                 if let (Some((lx, ly)), Some((_, mode)), Some(cam)) = (last, self.drag, self.state.camera.as_mut()) {
                     let (dx, dy) = (x - lx, y - ly);
                     match mode {
                         Drag::Orbit => cam.orbit(-dx * ORBIT_RAD_PER_PIXEL, dy * ORBIT_RAD_PER_PIXEL),
                         Drag::Pan => cam.pan(dx, dy, viewport.1),
+                        Drag::Grab => {}
                     }
                 }
             }
@@ -234,9 +256,11 @@ pub struct ScriptStep {
     pub inputs: Vec<Input>,
 }
 
-/// Parses `--script`: steps separated by `;`, each `FRAME:key:NAME`, `FRAME:wheel:NOTCHES` or
-/// `FRAME:drag:BUTTON:DX:DY` (BUTTON `left`, `right`, `middle` or `shift-left`; DX, DY pixels,
-/// starting from the viewport's centre). Example: `2:key:1;3:drag:left:120:-40;4:wheel:2`.
+/// Parses `--script`: steps separated by `;`, each `FRAME:key:NAME`, `FRAME:wheel:NOTCHES`,
+/// `FRAME:drag:BUTTON:DX:DY` (a whole drag from the viewport's centre, DX, DY pixels), or the
+/// parts of a drag spread over frames: `FRAME:down:BUTTON:X:Y`, `FRAME:move:X:Y`,
+/// `FRAME:up:BUTTON` (X, Y pixels from the top-left corner). BUTTON: `left`, `right`,
+/// `middle`, `shift-left` or `ctrl-left`. Example: `2:key:1;3:drag:left:120:-40;4:wheel:2`.
 pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>, String> {
     let mut steps = Vec::new();
     for item in text.split(';').map(str::trim).filter(|s| !s.is_empty()) {
@@ -248,16 +272,10 @@ pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>,
             ["key", name] if !name.is_empty() => vec![Input::Key(name.to_ascii_lowercase())],
             ["wheel", n] => vec![Input::Wheel(number(n)?)],
             ["drag", button, dx, dy] => {
-                let (button, shift) = match *button {
-                    "left" => (Button::Left, false),
-                    "right" => (Button::Right, false),
-                    "middle" => (Button::Middle, false),
-                    "shift-left" => (Button::Left, true),
-                    _ => return Err(bad("button must be left, right, middle or shift-left")),
-                };
+                let (button, modifiers) = script_button(button).ok_or_else(|| bad(BUTTONS))?;
                 let (cx, cy) = (viewport.0 * 0.5, viewport.1 * 0.5);
                 vec![
-                    Input::Modifiers { shift, ctrl: false },
+                    modifiers,
                     Input::Cursor(cx, cy),
                     Input::Button(button, true),
                     Input::Cursor(cx + number(dx)?, cy + number(dy)?),
@@ -265,12 +283,41 @@ pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>,
                     Input::Modifiers { shift: false, ctrl: false },
                 ]
             }
-            _ => return Err(bad("expected FRAME:key:NAME, FRAME:wheel:N or FRAME:drag:BUTTON:DX:DY")),
+            ["down", button, x, y] => {
+                let (button, modifiers) = script_button(button).ok_or_else(|| bad(BUTTONS))?;
+                vec![modifiers, Input::Cursor(number(x)?, number(y)?), Input::Button(button, true)]
+            }
+            ["move", x, y] => vec![Input::Cursor(number(x)?, number(y)?)],
+            ["up", button] => {
+                let (button, _) = script_button(button).ok_or_else(|| bad(BUTTONS))?;
+                vec![Input::Button(button, false), Input::Modifiers { shift: false, ctrl: false }]
+            }
+            _ => {
+                return Err(bad(
+                    "expected FRAME:key:NAME, FRAME:wheel:N, FRAME:drag:BUTTON:DX:DY, FRAME:down:BUTTON:X:Y, \
+                     FRAME:move:X:Y or FRAME:up:BUTTON",
+                ));
+            }
         };
         steps.push(ScriptStep { frame, inputs });
     }
     steps.sort_by_key(|s| s.frame);
     Ok(steps)
+}
+
+const BUTTONS: &str = "button must be left, right, middle, shift-left or ctrl-left";
+
+/// A script's button name: the button and the modifiers held with it.
+fn script_button(name: &str) -> Option<(Button, Input)> {
+    let (button, shift, ctrl) = match name {
+        "left" => (Button::Left, false, false),
+        "right" => (Button::Right, false, false),
+        "middle" => (Button::Middle, false, false),
+        "shift-left" => (Button::Left, true, false),
+        "ctrl-left" => (Button::Left, false, true),
+        _ => return None,
+    };
+    Some((button, Input::Modifiers { shift, ctrl }))
 }
 
 #[cfg(test)]
@@ -334,6 +381,23 @@ mod tests {
     }
 
     #[test]
+    fn ctrl_left_drag_grabs_without_moving_the_camera_works() {
+        let mut c = controls();
+        let effects = feed(
+            &mut c,
+            &[
+                Input::Cursor(30.0, 40.0),
+                Input::Modifiers { shift: false, ctrl: true },
+                Input::Button(Button::Left, true),
+                Input::Cursor(35.0, 20.0),
+                Input::Button(Button::Left, false),
+            ],
+        );
+        assert_eq!(effects, [Effect::GrabStart(30.0, 40.0), Effect::GrabMove(35.0, 20.0), Effect::GrabEnd]);
+        assert_eq!(eye(&c), Vec3::new(0.0, 0.0, 2.0));
+    }
+
+    #[test]
     fn wheel_zooms_and_r_resets_works() {
         let mut c = controls();
         feed(&mut c, &[Input::Wheel(2.0)]);
@@ -390,7 +454,18 @@ mod tests {
         assert_eq!(steps.iter().map(|s| s.frame).collect::<Vec<_>>(), [2, 3, 4]);
         assert_eq!(steps[0].inputs, [Input::Key("1".into())]);
         assert!(steps[1].inputs.contains(&Input::Cursor(220.0, 10.0)));
-        for bad in ["x:key:1", "1:drag:left:1", "1:drag:side:1:1", "1:wheel:nan", "1:jump"] {
+        let grab = parse_script("1:down:ctrl-left:10:20;2:move:15:25;3:up:ctrl-left", (1.0, 1.0)).unwrap();
+        assert_eq!(
+            grab[0].inputs,
+            [
+                Input::Modifiers { shift: false, ctrl: true },
+                Input::Cursor(10.0, 20.0),
+                Input::Button(Button::Left, true)
+            ]
+        );
+        assert_eq!(grab[1].inputs, [Input::Cursor(15.0, 25.0)]);
+        assert_eq!(grab[2].inputs[0], Input::Button(Button::Left, false));
+        for bad in ["x:key:1", "1:drag:left:1", "1:drag:side:1:1", "1:wheel:nan", "1:jump", "1:down:left:1", "1:up:x"] {
             assert!(parse_script(bad, (1.0, 1.0)).is_err(), "{bad}");
         }
     }

@@ -19,6 +19,7 @@ pub mod bezier;
 pub mod camera;
 pub mod controls;
 pub mod cut;
+pub mod grab;
 pub mod material;
 pub mod mesh_build;
 pub mod overlay;

@@ -354,6 +354,7 @@ fn run(args: &Args) -> Result<(), String> {
         out_dir: args.out.clone(),
         screenshot_after: args.screenshot_after_frames.zip(args.screenshot.clone()),
         script,
+        prefix: (!args.synthetic).then(|| args.prefix.clone()),
     };
     let mut source = open_source(args)?;
     match window::run(event_loop, source.as_mut(), options(args), window_options) {

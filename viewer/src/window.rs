@@ -21,6 +21,7 @@ use winit::window::{Window, WindowId};
 use crate::app::{Composer, Hud, ViewerOptions};
 use crate::camera::OrbitCamera;
 use crate::controls::{Button, Controls, Effect, Input, ScriptStep};
+use crate::grab::{cursor_ray, on_plane, pick_node};
 use crate::png_io::write_png;
 use crate::render::{DrawInput, GpuContext, OFFSCREEN_FORMAT, Offscreen, Renderer, wait_idle};
 use crate::source::{FrameSource, SourceEvent};
@@ -62,6 +63,131 @@ pub struct WindowOptions {
     /// Scripted inputs, applied before drawing frame `step.frame` (see
     /// [`crate::controls::parse_script`]).
     pub script: Vec<ScriptStep>,
+    /// The live core's service prefix, for mouse grabs (`None`: no core, no grab).
+    pub prefix: Option<String>,
+}
+
+/// A grasp held with ctrl + left drag.
+#[derive(Debug, Clone, Copy)]
+struct Grab {
+    node: u32,
+    /// Where the node was when picked, m.
+    anchor: glam::Vec3,
+    /// Normal of the drag plane (the view direction when picked).
+    normal: glam::Vec3,
+    /// Where the grasp point is now, m.
+    target: glam::Vec3,
+}
+
+/// The viewer's publisher on the core's `tool` service, opened on the first grab. A thread
+/// owns it and sends the held grasp every [`ToolPort::PERIOD`], so the core (which parks a
+/// tool whose commands stop for the scene's `timeout_ms`, 100 ms by default) keeps the grasp
+/// however slowly the window draws.
+struct ToolPort {
+    shared: Arc<std::sync::Mutex<PortState>>,
+    thread: Option<std::thread::JoinHandle<(u64, u64)>>,
+}
+
+#[derive(Default)]
+struct PortState {
+    /// The grasp point while button 0 is held.
+    held: Option<glam::Vec3>,
+    /// Where to send the tool, button up, once (a release).
+    release: Option<glam::Vec3>,
+    stop: bool,
+}
+
+impl ToolPort {
+    /// How often the held grasp is re-sent (5 ms: 200 Hz).
+    const PERIOD: Duration = Duration::from_millis(5);
+
+    fn open(prefix: &str) -> Result<Self, String> {
+        let shared = Arc::new(std::sync::Mutex::new(PortState::default()));
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let prefix = prefix.to_string();
+        let state = shared.clone();
+        let thread = std::thread::Builder::new()
+            .name("viewer-tool".into())
+            .spawn(move || {
+                let opened = lamina_bridge::Bridge::open(&lamina_bridge::BridgeConfig::with_prefix(&prefix))
+                    .map_err(|e| format!("bridge: {e}"))
+                    .and_then(|bridge| {
+                        let publisher =
+                            lamina_bridge::ToolPublisher::create(&bridge).map_err(|e| format!("tool service: {e}"))?;
+                        Ok((bridge, publisher))
+                    });
+                let (_bridge, publisher) = match opened {
+                    Ok(ports) => {
+                        let _ = ready_tx.send(Ok(()));
+                        ports
+                    }
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e));
+                        return (0, 0);
+                    }
+                };
+                let (mut sequence, mut sent, mut failures) = (0u64, 0u64, 0u64);
+                let mut send = |position: glam::Vec3, held: bool| {
+                    let command = lamina_bridge::ToolCommand {
+                        sequence,
+                        time_ns: lamina_bridge::now_ns(),
+                        position: position.as_dvec3().to_array(),
+                        buttons: u32::from(held),
+                        ..Default::default()
+                    };
+                    sequence += 1;
+                    match publisher.publish(&command) {
+                        Ok(_) => sent += 1,
+                        Err(_) => failures += 1,
+                    }
+                };
+                loop {
+                    let (held, release, stop) = match state.lock() {
+                        Ok(mut s) => (s.held, s.release.take(), s.stop),
+                        Err(_) => (None, None, true),
+                    };
+                    if let Some(p) = release {
+                        send(p, false);
+                    }
+                    if stop {
+                        break;
+                    }
+                    if let Some(p) = held {
+                        send(p, true);
+                    }
+                    std::thread::sleep(Self::PERIOD);
+                }
+                (sent, failures)
+            })
+            .map_err(|e| format!("thread: {e}"))?;
+        match ready_rx.recv() {
+            Ok(Ok(())) => Ok(Self { shared, thread: Some(thread) }),
+            Ok(Err(e)) => Err(e),
+            Err(_) => Err("the tool thread stopped".into()),
+        }
+    }
+
+    fn update(&self, f: impl FnOnce(&mut PortState)) {
+        if let Ok(mut s) = self.shared.lock() {
+            f(&mut s);
+        }
+    }
+
+    /// Holds the grasp at `position` (sent now and every period).
+    fn hold(&self, position: glam::Vec3) {
+        self.update(|s| s.held = Some(position));
+    }
+
+    /// Lets go and sends the tool to `position` (button up).
+    fn release(&self, position: glam::Vec3) {
+        self.update(|s| (s.held, s.release) = (None, Some(position)));
+    }
+
+    /// Stops the thread (a pending release is still sent); returns (sent, failed) commands.
+    fn close(&mut self) -> (u64, u64) {
+        self.update(|s| s.stop = true);
+        self.thread.take().and_then(|t| t.join().ok()).unwrap_or((0, 0))
+    }
 }
 
 /// winit's OS errors read `os error at FILE.rs:LINE: REASON`; the user needs the reason.
@@ -104,6 +230,9 @@ struct App<'a> {
     screenshots: u64,
     error: Option<WindowRunError>,
     quit: bool,
+    grab: Option<Grab>,
+    tool: Option<ToolPort>,
+    grabs: u64,
 }
 
 impl App<'_> {
@@ -176,8 +305,79 @@ impl App<'_> {
                     Err(e) => eprintln!("lamina-viewer: screenshot {}: {e}", path.display()),
                 }
             }
+            Some(Effect::GrabStart(x, y)) => self.grab_start(x, y),
+            Some(Effect::GrabMove(x, y)) => {
+                let ray = self.ray_at(x, y);
+                if let (Some(g), Some(ray)) = (self.grab.as_mut(), ray) {
+                    g.target = on_plane(&ray, g.anchor, g.normal).unwrap_or(g.target);
+                    if let Some(port) = self.tool.as_ref() {
+                        port.hold(g.target);
+                    }
+                }
+            }
+            Some(Effect::GrabEnd) => {
+                if let Some(g) = self.grab.take() {
+                    // Let go and take the tool out of the tissue (to the eye); without further
+                    // commands the core parks it after the scene's timeout.
+                    let eye = self.controls.state.camera.map_or(g.anchor, |c| c.camera().eye);
+                    if let Some(port) = self.tool.as_ref() {
+                        port.release(eye);
+                    }
+                    println!(
+                        "grab: released node {} after pulling it {:.1} mm",
+                        g.node,
+                        1e3 * (g.target - g.anchor).length()
+                    );
+                }
+            }
             None => {}
         }
+    }
+
+    /// The ray under pixel `(x, y)` of the current view.
+    fn ray_at(&self, x: f32, y: f32) -> Option<crate::grab::Ray> {
+        let camera = self.controls.state.camera?.camera();
+        let (w, h) = self.viewport();
+        Some(cursor_ray(&camera, w, h, x, y))
+    }
+
+    /// Picks the skin node under `(x, y)` and grasps it (tool command, button 0 held).
+    fn grab_start(&mut self, x: f32, y: f32) {
+        let Some(prefix) = self.window.prefix.clone() else {
+            println!("grab: needs a live core (this is the synthetic limb)");
+            return;
+        };
+        let (Some(ray), Some(frame), Some(model), Some(camera)) =
+            (self.ray_at(x, y), self.frame.as_ref(), self.composer.model(), self.controls.state.camera)
+        else {
+            return;
+        };
+        let skin: Vec<u32> = match model.grids.first() {
+            Some(grid) => grid.nodes.clone(),
+            None => model.triangle_surfaces.iter().flat_map(|s| s.triangles.iter().flatten().copied()).collect(),
+        };
+        let camera = camera.camera();
+        let Some(node) = pick_node(&ray, camera.fov_y, self.viewport().1, &frame.positions, &skin) else {
+            println!("grab: no skin node within {} px of ({x:.0}, {y:.0})", crate::grab::PICK_RADIUS_PX);
+            return;
+        };
+        if self.tool.is_none() {
+            match ToolPort::open(&prefix) {
+                Ok(port) => self.tool = Some(port),
+                Err(e) => {
+                    eprintln!("lamina-viewer: grab: cannot publish tool commands: {e}");
+                    return;
+                }
+            }
+        }
+        let anchor = frame.positions[node as usize];
+        let normal = (camera.target - camera.eye).normalize();
+        self.grab = Some(Grab { node, anchor, normal, target: anchor });
+        self.grabs += 1;
+        if let Some(port) = self.tool.as_ref() {
+            port.hold(anchor);
+        }
+        println!("grab: skin node {node} at ({:.1}, {:.1}, {:.1}) mm", 1e3 * anchor.x, 1e3 * anchor.y, 1e3 * anchor.z);
     }
 
     fn hud(&self, frame: &Frame) -> Hud {
@@ -414,6 +614,9 @@ pub fn run(
         screenshots: 0,
         error: None,
         quit: false,
+        grab: None,
+        tool: None,
+        grabs: 0,
     };
     event_loop.run_app(&mut app).map_err(WindowRunError::EventLoop)?;
     if let Some(e) = app.error {
@@ -427,6 +630,13 @@ pub fn run(
     );
     if !app.latency.is_empty() {
         println!("core-to-viewer latency (publish -> received): {}", app.latency.summary().to_ms_string());
+    }
+    if let Some(port) = app.tool.as_mut() {
+        if let Some(g) = app.grab.take() {
+            port.release(app.controls.state.camera.map_or(g.anchor, |c| c.camera().eye));
+        }
+        let (sent, failed) = port.close();
+        println!("mouse grab: {} grab(s), {sent} tool commands sent, {failed} failed", app.grabs);
     }
     Ok(())
 }

@@ -122,7 +122,7 @@ fn window_under_xvfb_matches_references_works() {
     // A watchdog against a hung X server or event loop; the test itself takes a few seconds.
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        if rx.recv_timeout(Duration::from_secs(300)).is_err() {
+        if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = rx.recv_timeout(Duration::from_secs(300)) {
             eprintln!("window test hung for 300 s");
             std::process::exit(1);
         }
