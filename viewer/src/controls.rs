@@ -236,7 +236,7 @@ impl Controls {
             "]" => s.cut_steps = (s.cut_steps + 1).min(50),
             "w" => s.wireframe = !s.wireframe,
             "space" | " " => s.paused = !s.paused,
-            "?" | "/" | "h" => s.help = !s.help,
+            "?" => s.help = !s.help,
             _ => {
                 if let Some(k) = key.parse::<usize>().ok().filter(|k| (1..=layers.min(9)).contains(k)) {
                     s.hidden_layers ^= 1 << (k - 1);

@@ -1,5 +1,5 @@
 //! The wgpu renderer: draws a [`SceneMesh`] and the 2-D layer into a colour target, offscreen
-//! (headless, read back as RGBA for PNG files) or into a window's surface (feature `window`).
+//! (headless, read back as RGBA for PNG files) or into a window's surface ([`crate::window`]).
 //!
 //! # How it works
 //! 1. [`GpuContext::headless`] picks an adapter without any window: on a machine without a GPU
