@@ -97,7 +97,7 @@ fn finish(child: &mut Child, name: &str, stop_now: bool) -> Result<ExitStatus, S
 /// their own process group, so Ctrl-C reaches the demo alone, which then stops the haptics
 /// process (its force goes to zero first), the core and the viewer, in that order, and prints
 /// every summary.
-pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String> {
+pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path>) -> Result<(), String> {
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err("--seconds must be positive".into());
     }
@@ -139,6 +139,9 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<(), String
     core.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &seconds.to_string(), "--report"]).arg(&report);
     if let Some(s) = scene {
         core.arg("--scene").arg(s);
+    }
+    if let Some(dir) = record {
+        core.arg("--record").arg(dir);
     }
     let core_log = out.join("core.log");
     let mut core = core

@@ -11,6 +11,7 @@ mod machine;
 mod plot;
 mod profile;
 mod publish;
+mod record;
 mod run;
 mod run_report;
 mod study;
@@ -61,6 +62,21 @@ enum Command {
         /// each, 144 MB). Default 600,000: the last ten minutes at 1 kHz, 24 MB.
         #[arg(long, default_value_t = 600_000)]
         ticks_csv_last: usize,
+        /// Record the run for ParaView into this folder: run.pvd (open it) and one
+        /// frame_NNNNNN.vtu per frame with the volume cells, displacement (m), velocity (m/s),
+        /// layer and spring strain; written by a separate thread, never blocking the loop
+        /// (docs/recording.md). The folder must not hold an earlier recording's frames.
+        #[arg(long, value_name = "DIR")]
+        record: Option<PathBuf>,
+        /// Ticks between recorded frames. Default: the scene's rate / 50, i.e. 50 frames per
+        /// second of simulated time (every 20 ticks at 1 kHz). The frame at rest (t = 0) is
+        /// recorded too.
+        #[arg(long, value_name = "N", requires = "record")]
+        record_every: Option<u32>,
+        /// Frames after which recording stops (the run goes on), 1 to 1,000,000. Default
+        /// 1,500: 30 s of simulated time at 50 frames/s, about 100 MB for the default scene.
+        #[arg(long, value_name = "N", default_value_t = record::DEFAULT_MAX_FRAMES, requires = "record")]
+        record_max_frames: usize,
     },
     /// Benchmarks that print tables.
     Bench {
@@ -105,6 +121,10 @@ enum Command {
         /// Output folder (frames, reports, logs).
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
+        /// Have the core record the run for ParaView into this folder (`lamina run --record`,
+        /// docs/recording.md).
+        #[arg(long, value_name = "DIR")]
+        record: Option<PathBuf>,
     },
     /// Cross-process profile: core-to-subscriber latency (poll and block), jitter, misses.
     Profile {
@@ -295,7 +315,7 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             fit::fit(&fit::FitOptions { materials, grids, scenes: scene, model_grid, seed, max_evaluations, out })
         }
-        Command::Demo { scene, seconds, out } => demo::demo(scene.as_deref(), seconds, &out),
+        Command::Demo { scene, seconds, out, record } => demo::demo(scene.as_deref(), seconds, &out, record.as_deref()),
         Command::Profile { scene, seconds, nodes, out } => {
             let sizes = parse_list(&nodes, "node count", |p| p.parse().ok().filter(|&n: &u64| n >= 1))?;
             profile::profile(scene.as_deref(), seconds, &sizes, &out)
@@ -339,9 +359,23 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             bench_capacity::bench(&opts)
         }
-        Command::Run { scene, seconds, report, quiet, prefix, no_publish, ticks_csv, ticks_csv_last } => {
+        Command::Run {
+            scene,
+            seconds,
+            report,
+            quiet,
+            prefix,
+            no_publish,
+            ticks_csv,
+            ticks_csv_last,
+            record,
+            record_every,
+            record_max_frames,
+        } => {
             let prefix = (!no_publish).then_some(prefix);
-            run::run(&run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv, ticks_csv_last })
+            let record =
+                record.map(|dir| record::RecordOptions { dir, every: record_every, max_frames: record_max_frames });
+            run::run(&run::RunOptions { scene, seconds, report, quiet, prefix, ticks_csv, ticks_csv_last, record })
         }
         Command::Bench {
             what:

@@ -30,6 +30,8 @@ pub struct RunOptions {
     pub ticks_csv: Option<PathBuf>,
     /// How many ticks `ticks_csv` keeps (the newest); 1 to [`MAX_TICKS_CSV`].
     pub ticks_csv_last: usize,
+    /// Record the run for ParaView (`--record`).
+    pub record: Option<super::record::RecordOptions>,
 }
 
 /// Most ticks `--ticks-csv` keeps: one hour at 1 kHz (40 bytes each, 144 MB).
@@ -61,6 +63,21 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let context = super::run_report::RunContext::start(loaded, &model, &sim, opts.prefix.as_deref());
     let _ = install_stop_handler(&STOP);
     print_setup(scene, &model, &sim);
+    // Before the real-time setup: the writer thread inherits neither its CPU nor its priority.
+    let mut recorder = match &opts.record {
+        Some(r) => Some(super::record::Recorder::start(&model, r, scene.rate_hz)?),
+        None => None,
+    };
+    if let (Some(rec), Some(r)) = (recorder.as_mut(), &opts.record) {
+        println!(
+            "recording to {} every {} ticks ({:.1} frames per simulated second), at most {} frames",
+            r.dir.join(lamina_core::io::RECORD_COLLECTION).display(),
+            rec.every(),
+            f64::from(scene.rate_hz) / f64::from(rec.every()),
+            r.max_frames
+        );
+        rec.record(sim.state());
+    }
     apply_realtime_setup(scene);
     // Warm-up outside the timed loop: first touches of every buffer. A stop signal ends a
     // frame between two sub-steps, so a scene with long frames still stops within one
@@ -71,6 +88,9 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         if !sim.step_or_stop(&STOP) {
             stopped_after = Some(sim.counters().substeps - before);
             break;
+        }
+        if let Some(rec) = recorder.as_mut() {
+            rec.after_step(sim.state());
         }
     }
     let policy = match scene.realtime.overrun {
@@ -124,6 +144,10 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                 stopped_after = Some(sim.counters().substeps - before);
                 return ControlFlow::Break(());
             }
+            if let Some(rec) = recorder.as_mut() {
+                // A copy into a preallocated slot; the writer thread does the rest.
+                rec.after_step(sim.state());
+            }
             if let Some(p) = publisher.as_mut() {
                 probe.measure(&clock, || {
                     if let Some(h) = p.haptic.as_mut() {
@@ -173,7 +197,14 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     drop(out);
     println!("\n{monitor}");
     let finite = print_physics(&sim, publisher.as_ref());
+    let recorded = recorder.map(super::record::Recorder::finish);
+    if let Some(Ok(summary)) = &recorded {
+        println!("{summary}");
+    }
     write_outputs(opts, &monitor, &context)?;
+    if let Some(Err(e)) = recorded {
+        return Err(e);
+    }
     if !finite {
         return Err(format!(
             "{}: the state diverged to non-finite values with the guard off (no such frame was published)",

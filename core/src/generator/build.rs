@@ -4,13 +4,13 @@
 use super::centreline::Centreline;
 use super::error::GeneratorError;
 use super::grid::GridSize;
-use super::layers::{BONE, FAT, SKIN, generated_layers};
+use super::layers::{BONE, FAT, MUSCLE, SKIN, generated_layers};
 use super::mass::node_masses;
 use super::materials::Materials;
 use super::surface::{Boundary, BoundarySurface};
 use super::topology::LayeredTopology;
 use super::vec3::{add, centroid, distance, scale};
-use crate::model::{GENERATE_MEMORY_FACTOR, Model, NodeKind, Surface};
+use crate::model::{Cell, CellKind, GENERATE_MEMORY_FACTOR, Model, NodeKind, Surface};
 use std::f64::consts::TAU;
 
 /// Springs shorter than this (m) mean two samples coincide.
@@ -177,6 +177,7 @@ pub fn generate_layered(
     model.nodes.mass = node_masses(&positions, &topo, materials);
     set_texcoords(&mut model);
     model.surfaces = surfaces_of(&topo);
+    model.cells = cells_of(&topo, &positions);
     model.provenance = vec![
         ("generator".into(), "lamina layered generator".into()),
         ("grid".into(), format!("{w}x{h}")),
@@ -206,6 +207,33 @@ fn set_texcoords(model: &mut Model) {
             tc[k] = if span > 0.0 { ((p[k] - lo[k]) / span) as f32 } else { 0.0 };
         }
     }
+}
+
+/// The volume cells the masses were computed on (see `mass.rs`): the skin's tetrahedra
+/// (per outer triangle, per shared outer edge, per dual-polygon triangle), then one
+/// triangular prism per level triangle in the fat (levels 1–2) and in the muscle (levels
+/// 2–3). Each is put in VTK order and oriented to a positive rest volume.
+fn cells_of(topo: &LayeredTopology, positions: &[[f64; 3]]) -> Vec<Cell> {
+    let grid = topo.grid;
+    let s = |v: u32| grid.surface_node(v);
+    let l = |level: u32, t: u32| grid.triangle_node(level, t);
+    let tet = |nodes: [u32; 4]| Cell::oriented(CellKind::Tetra, SKIN, &nodes, positions);
+    let wedge = |upper: u32, tri: &[u32; 3], layer: u16| {
+        let nodes = [l(upper, tri[0]), l(upper, tri[1]), l(upper, tri[2])];
+        let below = [l(upper + 1, tri[0]), l(upper + 1, tri[1]), l(upper + 1, tri[2])];
+        // Base below, top above: the base's right-hand normal faces the top.
+        Cell::oriented(CellKind::Wedge, layer, &[below, nodes].concat(), positions)
+    };
+    let outer = topo.outer_triangles.iter().enumerate().map(|(t, c)| tet([s(c[0]), s(c[1]), s(c[2]), l(1, t as u32)]));
+    let edges = topo.shared_edges.iter().map(|&([a, b], [t, u])| tet([s(a), s(b), l(1, t), l(1, u)]));
+    let dual = topo
+        .level_triangles
+        .iter()
+        .zip(&topo.level_triangle_apex)
+        .map(|(tri, &v)| tet([s(v), l(1, tri[0]), l(1, tri[1]), l(1, tri[2])]));
+    let fat = topo.level_triangles.iter().map(|tri| wedge(1, tri, FAT));
+    let muscle = topo.level_triangles.iter().map(|tri| wedge(2, tri, MUSCLE));
+    outer.chain(edges).chain(dual).chain(fat).chain(muscle).map(|c| c.expect("node counts match the kinds")).collect()
 }
 
 /// The outer skin and the three deeper boundaries, each with its triangles and a regular

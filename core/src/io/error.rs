@@ -197,6 +197,19 @@ pub enum ModelReadError {
         /// Why.
         reason: String,
     },
+    /// A cell's `nodes` attribute lists a number of nodes its kind does not have.
+    BadCellNodes {
+        /// Where the `nodes` attribute is.
+        at: SourceLocation,
+        /// The cell, e.g. `cell 3`.
+        item: String,
+        /// The cell's kind, e.g. `tetra`.
+        kind: &'static str,
+        /// Nodes a cell of that kind has.
+        expected: usize,
+        /// Nodes listed.
+        found: usize,
+    },
     /// Everything parsed, but [`crate::model::Model::validate`] rejects the model (zero
     /// mass, a spring from a node to itself, negative stiffness, turning length below the
     /// rest length, ...). `at` is the offending element when one is named.
@@ -229,6 +242,7 @@ impl ModelReadError {
             | Self::IndexOutOfOrder { at, .. }
             | Self::CountMismatch { at, .. }
             | Self::BadPpu { at, .. }
+            | Self::BadCellNodes { at, .. }
             | Self::Invalid { at, .. } => Some(at),
         }
     }
@@ -253,6 +267,7 @@ impl ModelReadError {
             | Self::IndexOutOfOrder { at, .. }
             | Self::CountMismatch { at, .. }
             | Self::BadPpu { at, .. }
+            | Self::BadCellNodes { at, .. }
             | Self::Invalid { at, .. } => Some(at),
         }
     }
@@ -315,6 +330,9 @@ impl fmt::Display for ModelReadError {
                 write!(f, "{at}: <{section}> declares count=\"{declared}\" but holds {found} elements")
             }
             Self::BadPpu { at, item, reason } => write!(f, "{at}: {item}: PPU pair is not a bilinear law: {reason}"),
+            Self::BadCellNodes { at, item, kind, expected, found } => {
+                write!(f, "{at}: {item}: a {kind} cell has {expected} nodes, attribute 'nodes' lists {found}")
+            }
             Self::Invalid { at, reason } => write!(f, "{at}: invalid model: {reason}"),
         }
     }

@@ -35,6 +35,9 @@ pub(crate) mod names {
     pub const SURFACE: &str = "surface";
     pub const TRIANGLES: &str = "triangles";
     pub const GRID: &str = "grid";
+    pub const CELLS: &str = "cells";
+    pub const CELL: &str = "cell";
+    pub const CELL_KINDS: &str = "tetra, wedge, hexahedron";
 
     pub const LAW_LINEAR: &str = "linear";
     pub const LAW_BILINEAR: &str = "bilinear";

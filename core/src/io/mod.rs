@@ -1,4 +1,6 @@
-//! Model files: the XML model format (`docs/model-format.md`) and VTK export for ParaView.
+//! Model files: the XML model format (`docs/model-format.md`) and VTK export for ParaView
+//! (a model, a series of positions, or a recorded run with its volume cells:
+//! `docs/recording.md`).
 //!
 //! # Examples
 //! ```
@@ -19,6 +21,7 @@ mod error;
 mod format;
 mod locate;
 mod vtu;
+mod vtu_record;
 mod vtu_series;
 mod xml_attrs;
 mod xml_read;
@@ -28,6 +31,7 @@ pub use error::{ModelReadError, ModelWriteError, SourceLocation, VtuWriteError};
 pub use format::{MODEL_FORMAT_VERSION, MODEL_UNITS, PPU_COMP_LEN, PPU_STRET_LEN_FACTOR};
 use lamina_input::FileLimit;
 pub use vtu::{VTK_LINE, VTK_TRIANGLE, vtu_to_string, write_vtu};
+pub use vtu_record::{RECORD_COLLECTION, VtuRecorder};
 pub use vtu_series::VtuSeriesWriter;
 pub use xml_read::{MIN_ELEMENT_BYTES, model_from_str, read_model};
 pub use xml_write::{ModelWriteOptions, model_to_string, model_to_string_with, write_model, write_model_with};

@@ -13,7 +13,7 @@ use super::xml_attrs::{
     Item, Slot, at, float32, float64, gather, index_below, integer, optional_f64, required, required_f64, unknown_value,
 };
 use crate::law::{Bilinear, PpuBilinearPair, PpuLinearSpring, SpringLaw};
-use crate::model::{Layer, Model, ModelValidateError, NodeKind, Surface, Tissue};
+use crate::model::{Cell, CellKind, Layer, Model, ModelValidateError, NodeKind, Surface, Tissue};
 use lamina_input::FileReadError;
 use quick_xml::errors::{Error as XmlError, SyntaxError};
 use quick_xml::events::{BytesStart, Event};
@@ -74,6 +74,7 @@ fn invalid_element(model: &Model, reason: &ModelValidateError) -> Option<(&'stat
         ModelValidateError::BadSurface { surface } => {
             model.surfaces.iter().position(|s| &s.name == surface).map(|i| (names::SURFACE, i as u64))
         }
+        ModelValidateError::BadCell { cell } => Some((names::CELL, *cell as u64)),
         ModelValidateError::BadLayer { .. } | ModelValidateError::RaggedArrays => Some((names::ROOT, 0)),
     }
 }
@@ -103,6 +104,8 @@ enum Ctx {
     Surface,
     Triangles,
     Grid,
+    Cells,
+    Cell,
 }
 
 impl Ctx {
@@ -126,6 +129,8 @@ impl Ctx {
             Ctx::Surface => names::SURFACE,
             Ctx::Triangles => names::TRIANGLES,
             Ctx::Grid => names::GRID,
+            Ctx::Cells => names::CELLS,
+            Ctx::Cell => names::CELL,
         }
     }
 }
@@ -141,8 +146,8 @@ enum Next {
 }
 
 /// Sections of the root in the order they must appear (rank = position + 1).
-const SECTIONS: [&str; 6] =
-    [names::PROVENANCE, names::LAYERS, names::MATERIALS, names::NODES, names::SPRINGS, names::SURFACES];
+const SECTIONS: [&str; 7] =
+    [names::PROVENANCE, names::LAYERS, names::MATERIALS, names::NODES, names::SPRINGS, names::SURFACES, names::CELLS];
 /// Sections that must be present.
 const REQUIRED_SECTIONS: [&str; 3] = [names::LAYERS, names::NODES, names::SPRINGS];
 
@@ -371,6 +376,10 @@ impl Parser {
             }
             (Some(Ctx::Surface), names::TRIANGLES) => self.surface_list(e, start, names::TRIANGLES)?,
             (Some(Ctx::Surface), names::GRID) => self.surface_list(e, start, names::GRID)?,
+            (Some(Ctx::Cells), names::CELL) => {
+                self.cell(e, start)?;
+                Ctx::Cell
+            }
             _ => {
                 return Err(ModelReadError::UnknownElement {
                     at: at(start),
@@ -417,6 +426,7 @@ impl Parser {
             names::LAYERS => Ctx::Layers,
             names::NODES => Ctx::Nodes,
             names::SPRINGS => Ctx::Springs,
+            names::CELLS => Ctx::Cells,
             _ => Ctx::Surfaces,
         };
         if matches!(ctx, Ctx::Provenance | Ctx::Materials) {
@@ -451,6 +461,7 @@ impl Parser {
                 s.damping.reserve(reserve);
                 s.layer.reserve(reserve);
             }
+            Ctx::Cells => self.model.cells.reserve(reserve),
             _ => self.model.surfaces.reserve(reserve),
         }
         Ok(ctx)
@@ -713,6 +724,38 @@ impl Parser {
         }
     }
 
+    fn cell(&mut self, e: &BytesStart<'_>, start: u64) -> Result<(), ModelReadError> {
+        let item = Item::new(names::CELL, self.found);
+        let [index, kind, layer, nodes] = gather(e, start, ["index", "kind", "layer", "nodes"], item)?;
+        self.own_index(&index, item, start, u32::MAX as u64 + 1)?;
+        let (k, off) = required(&kind, "kind", item, start)?;
+        let kind = CellKind::from_name(&k).ok_or_else(|| unknown_value(off, item, "kind", &k, names::CELL_KINDS))?;
+        let layer = self.layer_ref(&layer, item, start)?;
+        let (list, off) = required(&nodes, "nodes", item, start)?;
+        let n = self.model.nodes.len() as u64;
+        let mut ids = [0u32; 8];
+        let mut found = 0;
+        for token in list.split_ascii_whitespace() {
+            let v = index_below(token, off, item, "nodes", n)? as u32;
+            if found < ids.len() {
+                ids[found] = v;
+            }
+            found += 1;
+        }
+        let expected = kind.node_count();
+        let cell = (found == expected).then(|| Cell::new(kind, layer, &ids[..expected])).flatten();
+        let cell = cell.ok_or_else(|| ModelReadError::BadCellNodes {
+            at: at(off),
+            item: item.to_string(),
+            kind: kind.name(),
+            expected,
+            found,
+        })?;
+        self.model.cells.push(cell);
+        self.found += 1;
+        Ok(())
+    }
+
     // ---- text and end tags ------------------------------------------------------------
 
     fn text(&mut self, t: &str, start: u64) -> Result<(), ModelReadError> {
@@ -763,7 +806,7 @@ impl Parser {
                 }
                 self.root_done = true;
             }
-            Ctx::Layers | Ctx::Nodes | Ctx::Springs | Ctx::Surfaces => {
+            Ctx::Layers | Ctx::Nodes | Ctx::Springs | Ctx::Surfaces | Ctx::Cells => {
                 if self.found != self.declared {
                     return Err(ModelReadError::CountMismatch {
                         at: at(end),
@@ -825,7 +868,7 @@ impl Parser {
                 }
             }
             Ctx::Provenance | Ctx::Materials => self.mark_section(ctx.name()),
-            Ctx::Entry | Ctx::Layer | Ctx::Material | Ctx::Node | Ctx::PpuFirst | Ctx::PpuSecond => {}
+            Ctx::Entry | Ctx::Layer | Ctx::Material | Ctx::Node | Ctx::PpuFirst | Ctx::PpuSecond | Ctx::Cell => {}
         }
         Ok(())
     }

@@ -319,6 +319,25 @@ fn emit<W: Write>(model: &Model, options: ModelWriteOptions, sink: &mut W) -> io
         }
         o.s("  </surfaces>\n");
     }
+    if !model.cells.is_empty() {
+        o.s("  <cells");
+        o.int("count", model.cells.len() as u64);
+        o.s(">\n");
+        for (i, c) in model.cells.iter().enumerate() {
+            o.s("    <cell");
+            o.int("index", i as u64);
+            o.text("kind", c.kind.name());
+            o.int("layer", c.layer as u64);
+            o.s(" nodes=\"");
+            let nodes = c.nodes();
+            for (k, &v) in nodes.iter().enumerate() {
+                o.bare_int(v as u64, if k + 1 == nodes.len() { '"' } else { ' ' });
+            }
+            o.s("/>\n");
+            o.flush_if_full()?;
+        }
+        o.s("  </cells>\n");
+    }
     o.s("</lamina-model>\n");
     o.flush()
 }

@@ -1,6 +1,7 @@
 //! The layered mass-spring model as it is stored and exchanged: nodes, springs, layers,
-//! surfaces. Double precision, SI units. The solver derives its own streaming layout from it.
+//! surfaces, volume cells. Double precision, SI units. The solver derives its own streaming layout from it.
 
+mod cell;
 mod layer;
 mod model_data;
 mod node_set;
@@ -8,6 +9,7 @@ mod size;
 mod spring_set;
 mod surface;
 
+pub use cell::{Cell, CellKind};
 pub use layer::{Layer, Tissue};
 pub use model_data::{Model, ModelValidateError, Provenance};
 pub use node_set::{NodeKind, NodeSet};

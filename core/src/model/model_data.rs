@@ -1,6 +1,6 @@
 //! The whole model and its consistency check.
 
-use super::{Layer, NodeSet, SpringSet, Surface};
+use super::{Cell, Layer, NodeSet, SpringSet, Surface};
 use std::fmt;
 
 /// Where a model came from: generator settings, fit results, as ordered key/value pairs.
@@ -19,6 +19,9 @@ pub struct Model {
     pub layers: Vec<Layer>,
     /// Surfaces (outer skin first).
     pub surfaces: Vec<Surface>,
+    /// Volume cells (tetrahedra, prisms, hexahedra) over the nodes, for exports; may be
+    /// empty (a model file without a `<cells>` section).
+    pub cells: Vec<Cell>,
     /// Generator settings, fit results.
     pub provenance: Provenance,
 }
@@ -51,6 +54,12 @@ pub enum ModelValidateError {
         /// Surface name.
         surface: String,
     },
+    /// A cell names a node index that does not exist, names one node twice, or names a
+    /// layer that does not exist.
+    BadCell {
+        /// Cell index.
+        cell: u32,
+    },
     /// The per-node or per-spring arrays differ in length.
     RaggedArrays,
 }
@@ -65,6 +74,9 @@ impl fmt::Display for ModelValidateError {
             }
             Self::BadLayer { layer } => write!(f, "layer {layer} is named but not defined"),
             Self::BadSurface { surface } => write!(f, "surface {surface}: names a node that does not exist"),
+            Self::BadCell { cell } => {
+                write!(f, "cell {cell}: names a node or layer that does not exist, or one node twice")
+            }
             Self::RaggedArrays => write!(f, "per-node or per-spring arrays differ in length"),
         }
     }
@@ -120,6 +132,13 @@ impl Model {
         for surface in &self.surfaces {
             if surface.triangles.iter().flatten().any(|&v| v as usize >= n) {
                 return Err(ModelValidateError::BadSurface { surface: surface.name.clone() });
+            }
+        }
+        for (i, cell) in self.cells.iter().enumerate() {
+            let nodes = cell.nodes();
+            let repeated = (1..nodes.len()).any(|k| nodes[..k].contains(&nodes[k]));
+            if repeated || nodes.iter().any(|&v| v as usize >= n) || cell.layer as usize >= layers {
+                return Err(ModelValidateError::BadCell { cell: i as u32 });
             }
         }
         Ok(())

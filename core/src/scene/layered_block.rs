@@ -3,7 +3,9 @@
 //! (`config/scenes/block.toml`; the default scene is the generator's limb).
 
 use crate::law::{Bilinear, SpringLaw};
-use crate::model::{Layer, Model, ModelSize, ModelSizeError, NodeKind, RUN_MEMORY_FACTOR, Surface, Tissue};
+use crate::model::{
+    Cell, CellKind, Layer, Model, ModelSize, ModelSizeError, NodeKind, RUN_MEMORY_FACTOR, Surface, Tissue,
+};
 use crate::yardstick::lattice::{OFFSETS, lattice_model_size};
 use serde::Deserialize;
 
@@ -192,6 +194,18 @@ pub fn layered_block(spec: &BlockSpec) -> Model {
             };
             let (law, damping) = material.law(rest);
             model.springs.push(n as u32, m as u32, rest, law, damping, layer);
+        }
+    }
+    // One hexahedron per lattice cube, in the layer of its upper row: bottom face at row j
+    // counter-clockwise seen from above (+y), top face at row j + 1.
+    for j in 0..ny - 1 {
+        for k in 0..nz - 1 {
+            for i in 0..nx - 1 {
+                let face = |j: usize| [index(i, j, k), index(i, j, k + 1), index(i + 1, j, k + 1), index(i + 1, j, k)];
+                let nodes: Vec<u32> = face(j).into_iter().chain(face(j + 1)).map(|n| n as u32).collect();
+                let cell = Cell::new(CellKind::Hexahedron, layer_of_row(j + 1), &nodes);
+                model.cells.extend(cell);
+            }
         }
     }
     let top = ny - 1;
