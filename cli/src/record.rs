@@ -117,8 +117,10 @@ pub struct RecordSummary {
 impl Recorder {
     /// Creates the folder and the empty collection (so a bad folder fails before the run
     /// starts), allocates the ring and starts the writer thread. Call it before the loop
-    /// thread asks for real-time priority and a CPU: the writer inherits neither.
-    pub fn start(model: &Model, opts: &RecordOptions, rate_hz: u32) -> Result<Self, String> {
+    /// thread asks for real-time priority and a CPU: the writer inherits neither. The writer
+    /// runs at normal priority, pinned to the first CPU other than `loop_cpu` when there is
+    /// one, so its encoding and file writes stay off the loop's CPU.
+    pub fn start(model: &Model, opts: &RecordOptions, rate_hz: u32, loop_cpu: Option<usize>) -> Result<Self, String> {
         opts.check()?;
         let dir = opts.dir.clone();
         if dir.exists() && !dir.is_dir() {
@@ -142,9 +144,14 @@ impl Recorder {
         }
         let done = Arc::new(AtomicBool::new(false));
         let (w_free, w_full, w_done) = (free.clone(), full.clone(), done.clone());
+        let writer_cpu = lamina_rt::available_cpus().into_iter().find(|&c| Some(c) != loop_cpu);
         let handle = std::thread::Builder::new()
             .name("lamina-record".into())
             .spawn(move || {
+                if let Some(cpu) = writer_cpu {
+                    // Best effort: unpinned, it still runs below the loop's priority.
+                    let _ = lamina_rt::pin_current_thread(cpu);
+                }
                 let mut result = WriterResult {
                     written: 0,
                     bytes: 0,
@@ -344,7 +351,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("lamina_record_unit_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let opts = RecordOptions { dir: dir.clone(), every: Some(2), max_frames: 40 };
-        let mut rec = Recorder::start(&model, &opts, scene.rate_hz).unwrap();
+        let mut rec = Recorder::start(&model, &opts, scene.rate_hz, None).unwrap();
         rec.record(sim.state());
         let before = allocations();
         for _ in 0..200 {

@@ -65,7 +65,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     print_setup(scene, &model, &sim);
     // Before the real-time setup: the writer thread inherits neither its CPU nor its priority.
     let mut recorder = match &opts.record {
-        Some(r) => Some(super::record::Recorder::start(&model, r, scene.rate_hz)?),
+        Some(r) => Some(super::record::Recorder::start(&model, r, scene.rate_hz, loop_cpu(scene))?),
         None => None,
     };
     if let (Some(rec), Some(r)) = (recorder.as_mut(), &opts.record) {
@@ -279,10 +279,15 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 }
 
+/// The CPU the loop is pinned to: the scene's, else the last one available.
+fn loop_cpu(scene: &Scene) -> Option<usize> {
+    scene.realtime.cpu.or_else(|| available_cpus().last().copied())
+}
+
 /// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what
 /// was granted and refused.
 fn apply_realtime_setup(scene: &Scene) {
-    let cpu = scene.realtime.cpu.or_else(|| available_cpus().last().copied());
+    let cpu = loop_cpu(scene);
     let mut request = RealtimeRequest::new();
     request.cpu = cpu;
     if let Some(p) = scene.realtime.fifo_priority {

@@ -31,7 +31,9 @@ pub use error::{ModelReadError, ModelWriteError, SourceLocation, VtuWriteError};
 pub use format::{MODEL_FORMAT_VERSION, MODEL_UNITS, PPU_COMP_LEN, PPU_STRET_LEN_FACTOR};
 use lamina_input::FileLimit;
 pub use vtu::{VTK_LINE, VTK_TRIANGLE, vtu_to_string, write_vtu};
-pub use vtu_record::{RECORD_COLLECTION, VtuRecorder};
+pub use vtu_record::{
+    RECORD_COLLECTION, RecordReadError, RecordedFrame, VtuRecorder, read_recorded_points, read_recording,
+};
 pub use vtu_series::VtuSeriesWriter;
 pub use xml_read::{MIN_ELEMENT_BYTES, model_from_str, read_model};
 pub use xml_write::{ModelWriteOptions, model_to_string, model_to_string_with, write_model, write_model_with};

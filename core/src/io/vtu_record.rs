@@ -285,6 +285,113 @@ impl Drop for VtuRecorder {
     }
 }
 
+/// Recorded files this reader accepts: at most 1 GiB each, read into at most twice that.
+const RECORDED_FILE: lamina_input::FileLimit =
+    lamina_input::FileLimit::new("recorded frame", 1 << 30).memory_per_byte(2);
+
+/// Why a recording could not be read back.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RecordReadError {
+    /// The file.
+    pub file: String,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl std::fmt::Display for RecordReadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.file, self.message)
+    }
+}
+
+impl std::error::Error for RecordReadError {}
+
+/// One frame listed in a recording's collection.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedFrame {
+    /// Simulated time, s.
+    pub time: f64,
+    /// The frame's `.vtu` file.
+    pub path: PathBuf,
+}
+
+fn read_text(path: &Path) -> Result<String, RecordReadError> {
+    use std::io::Read as _;
+    let error = |message: String| RecordReadError { file: path.display().to_string(), message };
+    let (file, size) = lamina_input::open_regular(path, &RECORDED_FILE).map_err(|e| error(e.to_string()))?;
+    let mut text = String::with_capacity(size as usize);
+    file.take(RECORDED_FILE.max_bytes).read_to_string(&mut text).map_err(|e| error(e.to_string()))?;
+    Ok(text)
+}
+
+/// The value of attribute `name` in one start tag's text (`<DataSet a="1" b="2"/>`).
+fn attribute<'t>(tag: &'t str, name: &str) -> Option<&'t str> {
+    let key = format!(" {name}=\"");
+    let start = tag.find(&key)? + key.len();
+    tag[start..].find('"').map(|end| &tag[start..start + end])
+}
+
+/// The frames listed in a recording's collection (`run.pvd`), in time order, with their
+/// files resolved next to it.
+///
+/// # Errors
+/// [`RecordReadError`] naming the file when it cannot be read, lists no frame, or a
+/// `<DataSet>` lacks a finite `timestep` or a `file`.
+pub fn read_recording(pvd: impl AsRef<Path>) -> Result<Vec<RecordedFrame>, RecordReadError> {
+    let pvd = pvd.as_ref();
+    let text = read_text(pvd)?;
+    let error = |message: String| RecordReadError { file: pvd.display().to_string(), message };
+    let base = pvd.parent().unwrap_or(Path::new("."));
+    let mut frames = Vec::new();
+    for (k, piece) in text.split("<DataSet").skip(1).enumerate() {
+        let tag = &piece[..piece.find('>').unwrap_or(piece.len())];
+        let time = attribute(tag, "timestep").and_then(|t| t.parse::<f64>().ok()).filter(|t| t.is_finite());
+        let file = attribute(tag, "file").filter(|f| !f.is_empty());
+        let (Some(time), Some(file)) = (time, file) else {
+            return Err(error(format!("DataSet {k}: needs a finite timestep and a file")));
+        };
+        frames.push(RecordedFrame { time, path: base.join(file) });
+    }
+    if frames.is_empty() {
+        return Err(error("lists no frame (no <DataSet>)".into()));
+    }
+    frames.sort_by(|a, b| a.time.total_cmp(&b.time));
+    Ok(frames)
+}
+
+/// The node positions (m) of one recorded frame, as [`VtuRecorder`] writes them (the
+/// `Points` array, Float32, base64 binary).
+///
+/// # Errors
+/// [`RecordReadError`] naming the file when it cannot be read or its `Points` array is
+/// missing, not Float32 binary, or not 3 × `NumberOfPoints` values.
+pub fn read_recorded_points(path: impl AsRef<Path>) -> Result<Vec<[f32; 3]>, RecordReadError> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    let error = |message: &str| RecordReadError { file: path.display().to_string(), message: message.to_string() };
+    let piece = text.find("<Piece").map(|i| &text[i..]).ok_or_else(|| error("no <Piece>"))?;
+    let count: usize = attribute(&piece[..piece.find('>').unwrap_or(0)], "NumberOfPoints")
+        .and_then(|n| n.parse().ok())
+        .ok_or_else(|| error("<Piece> lacks NumberOfPoints"))?;
+    let points = text.find("<Points>").map(|i| &text[i..]).ok_or_else(|| error("no <Points>"))?;
+    let open = points.find("<DataArray").map(|i| &points[i..]).ok_or_else(|| error("<Points> holds no <DataArray>"))?;
+    let tag_end = open.find('>').ok_or_else(|| error("unterminated <DataArray>"))?;
+    let tag = &open[..tag_end];
+    if attribute(tag, "type") != Some("Float32") || attribute(tag, "format") != Some("binary") {
+        return Err(error("the points are not a Float32 binary array (not written by lamina run --record)"));
+    }
+    let body = &open[tag_end + 1..];
+    let body = body[..body.find('<').unwrap_or(body.len())].trim_ascii();
+    let bytes = BASE64.decode(body).map_err(|e| error(&format!("points: bad base64: {e}")))?;
+    let data = bytes.get(8..).ok_or_else(|| error("points: shorter than their header"))?;
+    let declared = u64::from_le_bytes(bytes[..8].try_into().unwrap_or([0; 8]));
+    if declared != data.len() as u64 || data.len() != count.saturating_mul(12) {
+        return Err(error(&format!("points: {} bytes for {count} points (expected {})", data.len(), count * 12)));
+    }
+    let f = |k: usize| f32::from_le_bytes([data[k], data[k + 1], data[k + 2], data[k + 3]]);
+    Ok((0..count).map(|i| [f(12 * i), f(12 * i + 4), f(12 * i + 8)]).collect())
+}
+
 /// Engineering strain of spring `(a, b, rest)` at `positions`; 0 for a zero rest length.
 fn strain((a, b, rest): (u32, u32, f64), positions: &[[f64; 3]]) -> f64 {
     let (p, q) = (positions[a as usize], positions[b as usize]);
