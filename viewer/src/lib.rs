@@ -25,6 +25,7 @@ pub mod mesh_build;
 pub mod overlay;
 pub mod png_io;
 pub mod render;
+pub mod replay;
 pub mod scene_mesh;
 pub mod source;
 pub mod synthetic;

@@ -65,6 +65,10 @@ struct Args {
     /// Draw the built-in animated limb instead of subscribing to a core.
     #[arg(long)]
     synthetic: bool,
+    /// Play back a recording (`lamina run --record DIR`): DIR/run.pvd, over the model of
+    /// --scene (default: the built-in default scene), at its simulated pace.
+    #[arg(long, value_name = "PVD", conflicts_with = "synthetic")]
+    replay: Option<PathBuf>,
     /// Write every Nth frame to --out.
     #[arg(long, default_value_t = 1)]
     every: u64,
@@ -148,6 +152,10 @@ fn reference_model(args: &Args) -> Result<ViewModel, String> {
 fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
     if args.synthetic {
         return Ok(Box::new(SyntheticSource::default()));
+    }
+    if let Some(pvd) = &args.replay {
+        let model = reference_model(args)?;
+        return Ok(Box::new(lamina_viewer::replay::ReplaySource::open(pvd, model)?));
     }
     let reference = match reference_model(args) {
         Ok(m) => Some(m),

@@ -1,0 +1,147 @@
+//! A recorded run (`lamina run --record DIR`, `docs/recording.md`) played back:
+//! `lamina-viewer --replay DIR/run.pvd [--scene F]`.
+//!
+//! The recording holds positions only; the model drawn (grids, springs, layers) is the
+//! scene's, which must have as many nodes as the recording. Frames come at their simulated
+//! times, one simulated second per wall second, from the first [`FrameSource::next_event`]
+//! on; after the last frame the source stays idle, so the picture keeps the last state.
+
+use core::time::Duration;
+use std::path::Path;
+use std::time::Instant;
+
+use glam::Vec3;
+use lamina_core::io::{RecordedFrame, read_recorded_points, read_recording};
+
+use crate::source::{FrameSource, SourceEvent};
+use crate::view_model::{Frame, ViewModel};
+
+/// Frames of a recording, paced by their simulated times.
+#[derive(Debug)]
+pub struct ReplaySource {
+    model: ViewModel,
+    frames: Vec<RecordedFrame>,
+    source: String,
+    model_sent: bool,
+    next: usize,
+    /// Wall clock and simulated time of the first frame handed out.
+    origin: Option<(Instant, f64)>,
+}
+
+impl ReplaySource {
+    /// Opens the collection `pvd` to draw over `model`.
+    ///
+    /// # Errors
+    /// The collection cannot be read or lists no frame, the first frame cannot be read, or
+    /// its point count differs from the model's node count (the message says which scene to
+    /// give with `--scene`).
+    pub fn open(pvd: &Path, model: ViewModel) -> Result<Self, String> {
+        let frames = read_recording(pvd).map_err(|e| e.to_string())?;
+        let first = read_recorded_points(&frames[0].path).map_err(|e| e.to_string())?;
+        if first.len() != model.node_count {
+            return Err(format!(
+                "{}: the recording has {} nodes, the scene's model '{}' {}: give the scene it was recorded from with --scene",
+                pvd.display(),
+                first.len(),
+                model.name,
+                model.node_count
+            ));
+        }
+        Ok(Self { model, frames, source: pvd.display().to_string(), model_sent: false, next: 0, origin: None })
+    }
+}
+
+impl FrameSource for ReplaySource {
+    fn next_event(&mut self, timeout: Duration) -> SourceEvent {
+        if !self.model_sent {
+            self.model_sent = true;
+            return SourceEvent::Model(self.model.clone());
+        }
+        let Some(recorded) = self.frames.get(self.next) else {
+            std::thread::sleep(timeout);
+            return SourceEvent::Idle("replay finished (last frame shown)");
+        };
+        let (start, t0) = *self.origin.get_or_insert((Instant::now(), recorded.time));
+        let due = Duration::from_secs_f64((recorded.time - t0).max(0.0));
+        let wait = due.saturating_sub(start.elapsed());
+        if wait > timeout {
+            std::thread::sleep(timeout);
+            return SourceEvent::Idle("replaying (next frame not yet due)");
+        }
+        std::thread::sleep(wait);
+        let sequence = self.next as u64;
+        self.next += 1;
+        match read_recorded_points(&recorded.path) {
+            Ok(points) if points.len() == self.model.node_count => SourceEvent::Frame(Frame {
+                sequence,
+                sim_time_s: recorded.time,
+                publish_time_ns: 0,
+                positions: points.into_iter().map(Vec3::from).collect(),
+                tool: None,
+                stats: None,
+            }),
+            Ok(points) => {
+                eprintln!("lamina-viewer: {}: {} points, skipped", recorded.path.display(), points.len());
+                SourceEvent::Idle("replaying (a frame was skipped)")
+            }
+            Err(e) => {
+                eprintln!("lamina-viewer: {e}; skipped");
+                SourceEvent::Idle("replaying (a frame was skipped)")
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        let span = self.frames.last().map_or(0.0, |f| f.time) - self.frames[0].time;
+        format!("replay of {} frames ({span:.2} s simulated) from {}", self.frames.len(), self.source)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lamina_core::io::VtuRecorder;
+    use lamina_core::scene::Scene;
+
+    /// A recording of the default model, each frame moving every node by its frame number in
+    /// millimetres along +x, plays back in order at its times, then stays idle; a recording
+    /// of another model is refused, naming both node counts.
+    #[test]
+    fn replay_plays_recorded_frames_in_order_works() {
+        let model = Scene::builtin_default().build_model().unwrap();
+        let dir = std::env::temp_dir().join(format!("lamina_viewer_replay_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut rec = VtuRecorder::create(&model, &dir).unwrap();
+        let still = vec![[0.0; 3]; model.nodes.len()];
+        for k in 0..4 {
+            let moved: Vec<[f64; 3]> =
+                model.nodes.position.iter().map(|p| [p[0] + 1e-3 * k as f64, p[1], p[2]]).collect();
+            rec.write_frame(0.02 * k as f64, &moved, &still).unwrap();
+        }
+        let pvd = rec.finish().unwrap();
+        let view = ViewModel::from_core_model(&model);
+        let mut source = ReplaySource::open(&pvd, view.clone()).unwrap();
+        assert!(source.describe().starts_with("replay of 4 frames (0.06 s simulated)"), "{}", source.describe());
+        assert_eq!(source.next_event(Duration::from_secs(1)), SourceEvent::Model(view));
+        let mut seen = 0;
+        while seen < 4 {
+            match source.next_event(Duration::from_secs(1)) {
+                SourceEvent::Frame(f) => {
+                    assert_eq!(f.sequence, seen);
+                    assert!((f.sim_time_s - 0.02 * seen as f64).abs() < 1e-12);
+                    let p = model.nodes.position[7];
+                    let expect = Vec3::new((p[0] + 1e-3 * seen as f64) as f32, p[1] as f32, p[2] as f32);
+                    assert!((f.positions[7] - expect).length() < 1e-7, "{:?} vs {expect:?}", f.positions[7]);
+                    seen += 1;
+                }
+                SourceEvent::Idle(_) => {}
+                SourceEvent::Model(_) => panic!("the model comes once"),
+            }
+        }
+        assert!(matches!(source.next_event(Duration::from_millis(1)), SourceEvent::Idle(_)));
+        let block = lamina_core::scene::layered_block(&lamina_core::scene::BlockSpec::default());
+        let err = ReplaySource::open(&pvd, ViewModel::from_core_model(&block)).unwrap_err();
+        assert!(err.contains("the recording has 1032 nodes") && err.contains("1728"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
