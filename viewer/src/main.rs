@@ -252,7 +252,17 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                     figures.latency_receive.push(lamina_bridge::now_ns().saturating_sub(frame.publish_time_ns));
                 }
                 figures.frame_starts.push(start);
-                let hud = figures.hud(if args.synthetic { "NO CORE" } else { "LIVE" }, &frame, &model_name);
+                let hud = figures.hud(
+                    if args.synthetic {
+                        "NO CORE"
+                    } else if args.replay.is_some() {
+                        "REPLAY"
+                    } else {
+                        "LIVE"
+                    },
+                    &frame,
+                    &model_name,
+                );
                 let timing = viewer.render(&frame, &hud).map_err(|e| e.to_string())?;
                 if frame.publish_time_ns > 0 {
                     figures.latency_drawn.push(lamina_bridge::now_ns().saturating_sub(frame.publish_time_ns));
