@@ -1,15 +1,17 @@
 //! `lamina demo`: the main job as three cooperating processes on one service prefix:
 //! - the core (`lamina run`) stepping the scene at its rate, pinned to the last CPU;
-//! - the haptics process (`lamina-haptics`) with a scripted device pressing into the skin and
-//!   then grasping and pulling it (`config/trajectories/demo_press_pull.csv`, built in),
-//!   device loop at 4 kHz pinned to the first CPU;
+//! - the haptics process (`lamina-haptics`) with a scripted device pressing 12 mm into the
+//!   skin and then grasping and pulling it, fitted to the run's length
+//!   ([`DemoScript`]; `config/trajectories/demo_press_pull.csv` is the script at its nominal
+//!   pace), device loop at 4 kHz pinned to the first CPU;
 //! - the viewer (`lamina-viewer`): a window when there is a display, else headless writing PNG
 //!   frames.
 //!
 //! At exit, or on Ctrl-C (SIGINT) or SIGTERM, it stops the children in order (haptics, core,
 //! viewer), prints the cross-process profile (core deadlines, device-loop rate and jitter,
-//! core-to-device and core-to-viewer latency, viewer frame time) and where everything went.
-//! Each run clears the previous run's frames.
+//! core-to-device and core-to-viewer latency, viewer frame time), the peak skin displacement
+//! under the tool and the peak force on the tool ([`Peaks`], measured by the demo from the
+//! core's messages), and where everything went. Each run clears the previous run's frames.
 
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -17,7 +19,11 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// The demo's device script (device frame, metres, buttons), written to the output folder.
+use super::demo_script::DemoScript;
+use super::demo_watch::{Peaks, Watch};
+
+/// The demo's device script at its nominal pace (device frame, metres, buttons); `lamina
+/// demo` plays it fitted to its run ([`DemoScript`]).
 pub const DEMO_TRAJECTORY: &str = include_str!("../../config/trajectories/demo_press_pull.csv");
 
 fn sibling(name: &str) -> Result<PathBuf, String> {
@@ -46,6 +52,36 @@ pub fn haptics_args(scene: Option<&Path>) -> Result<Option<[String; 4]>, String>
         ]),
         lamina_core::scene::ToolSource::Scripted { .. } => None,
     }))
+}
+
+/// Height of the demo's view at the tool, m: the top of the limb around the press and the
+/// grasp, so the 12 mm press is about 50 pixels deep in the 540-pixel-high image.
+const VIEW_SPAN_M: f64 = 0.12;
+
+/// The viewer's `--focus` for the scripted press (from [`haptics_args`]): the top of the skin
+/// (one tool radius below the device origin), midway between the press and the grasp site
+/// (device x is model z).
+fn focus(haptics_args: &[String; 4]) -> Option<String> {
+    let o: Vec<f64> = haptics_args[1].split(',').map(|v| v.parse::<f64>()).collect::<Result<_, _>>().ok()?;
+    let radius: f64 = haptics_args[3].parse().ok()?;
+    let z = o.get(2)? + 0.5 * super::demo_script::GRASP_OFFSET_X_M;
+    Some(format!("{},{},{z},{VIEW_SPAN_M}", o.first()?, o.get(1)? - radius))
+}
+
+/// What the viewer left: frames shown in a window (its log says how many; screenshots, key
+/// S, go to `frames_dir`), or headless PNG frames in `frames_dir`.
+fn frames_line(viewer_log: &str, frames_dir: &Path) -> String {
+    let pngs = std::fs::read_dir(frames_dir)
+        .map(|d| d.filter(|e| e.as_ref().is_ok_and(|e| e.path().extension().is_some_and(|x| x == "png"))).count())
+        .unwrap_or(0);
+    let shown = viewer_log
+        .lines()
+        .filter(|l| l.starts_with("window"))
+        .find_map(|l| l.split_once(" frames shown on screen")?.0.rsplit(' ').next()?.parse::<u64>().ok());
+    match shown {
+        Some(n) => format!("{n} frames shown on screen in a window; {pngs} screenshots in {}", frames_dir.display()),
+        None => format!("{pngs} frames written to {}", frames_dir.display()),
+    }
 }
 
 /// Set by SIGINT or SIGTERM: the demo then stops its children in order and prints their
@@ -117,6 +153,12 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         .iter()
         .any(|d| d.as_ref().is_some_and(|d| !d.is_empty()));
     let haptics_args = haptics_args(scene)?;
+    let script = DemoScript::for_run(seconds);
+    // The demo's own measurements, subscribed before the core starts.
+    let watch = match &haptics_args {
+        Some(args) => Some(Watch::start(&prefix, args[3].parse().unwrap_or(0.0))?),
+        None => None,
+    };
 
     // The viewer first: it waits for the core and must not miss its topology.
     let mut viewer = Command::new(sibling("lamina-viewer")?);
@@ -125,6 +167,9 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     viewer.arg("--out").arg(&frames_dir);
     if let Some(s) = scene {
         viewer.arg("--scene").arg(s);
+    }
+    if let Some(focus) = haptics_args.as_ref().and_then(|a| focus(a)) {
+        viewer.arg("--focus").arg(focus);
     }
     let viewer_log = out.join("viewer.log");
     let mut viewer = viewer
@@ -157,7 +202,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     let mut haptics = match haptics_args {
         Some(args) => {
             let trajectory = out.join("demo_press_pull.csv");
-            std::fs::write(&trajectory, DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
+            std::fs::write(&trajectory, &script.csv).map_err(|e| format!("{}: {e}", trajectory.display()))?;
             std::thread::sleep(std::time::Duration::from_millis(600));
             let mut h = Command::new(sibling("lamina-haptics")?);
             h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
@@ -191,6 +236,19 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         },
         if display { "a window on this display" } else { "headless, no display found" }
     );
+    if haptics.is_some() {
+        match script.skipped(seconds) {
+            Some(skipped) => println!("{skipped}"),
+            None => println!(
+                "scripted device: press {:.0} mm, hold, release, grasp and pull {:.0} mm up, let go, in {:.2} s ({:.0} % of the nominal {:.1} s)",
+                super::demo_script::PRESS_DEPTH_M * 1e3,
+                super::demo_script::PULL_HEIGHT_M * 1e3,
+                script.duration_s,
+                100.0 * script.pace,
+                super::demo_script::NOMINAL_S
+            ),
+        }
+    }
     println!(
         "writing to {} (frames in {}{}); Ctrl-C stops it early",
         out.display(),
@@ -212,6 +270,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     };
     // The viewer stops after its frame count or when told.
     terminate(&mut viewer, "lamina-viewer")?;
+    let peaks: Option<Peaks> = watch.map(Watch::finish).transpose()?;
 
     println!("\n== core (lamina run)\n{}", std::fs::read_to_string(&core_log).unwrap_or_default());
     if haptics_status.is_some() {
@@ -222,10 +281,12 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     for line in text.lines().filter(|l| !l.starts_with("frame ")).take(40) {
         println!("{line}");
     }
-    let frames = std::fs::read_dir(&frames_dir).map(|d| d.count()).unwrap_or(0);
+    if let Some(p) = peaks {
+        println!("\n== tool (measured by the demo)\n{p}");
+    }
     println!(
-        "\n{frames} frames written to {}\nreports: {} (core), {} (haptics); logs: {} {} {}",
-        frames_dir.display(),
+        "\n{}\nreports: {} (core), {} (haptics); logs: {} {} {}",
+        frames_line(&text, &frames_dir),
         report.display(),
         haptics_report.display(),
         core_log.display(),
@@ -243,4 +304,27 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         return Err(format!("the haptics process exited with {s} (see {})", haptics_log.display()));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_line_says_window_or_files() {
+        let dir = std::env::temp_dir().join(format!("lamina_frames_line_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("frame_00000.png"), b"").unwrap();
+        std::fs::write(dir.join("frames.csv"), b"").unwrap();
+        let window = "lamina-viewer: x\nwindow on llvmpipe (LLVM 19, 256 bits): 412 frames shown on screen, frame time p50 1 ms\n";
+        assert_eq!(
+            frames_line(window, &dir),
+            format!("412 frames shown on screen in a window; 1 screenshots in {}", dir.display())
+        );
+        assert_eq!(
+            frames_line("== lamina-viewer: 3 frames in 1 s\n", &dir),
+            format!("1 frames written to {}", dir.display())
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -4,6 +4,8 @@ mod bench_capacity;
 mod bench_effects;
 mod bench_yardstick;
 mod demo;
+mod demo_script;
+mod demo_watch;
 mod fit;
 mod generate;
 mod haptic_link;

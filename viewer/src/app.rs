@@ -22,7 +22,7 @@
 
 use std::time::Instant;
 
-use crate::camera::{Camera, bounds, default_view};
+use crate::camera::{Camera, Focus, bounds, default_view};
 use crate::controls::{CUT_STEP_FRACTION, ViewState, key_list_lines};
 use crate::cut::CutPlane;
 use crate::mesh_build::{MeshBuilder, MeshOptions, SpringDisplay};
@@ -50,11 +50,22 @@ pub struct ViewerOptions {
     pub cut: bool,
     /// Whether to draw the text overlay and legend.
     pub overlay: bool,
+    /// A close view of one spot instead of the default view of the whole model (the cut
+    /// plane stays the default one).
+    pub focus: Option<Focus>,
 }
 
 impl Default for ViewerOptions {
     fn default() -> Self {
-        Self { width: 320, height: 240, samples: 4, mesh: MeshOptions::default(), cut: true, overlay: true }
+        Self {
+            width: 320,
+            height: 240,
+            samples: 4,
+            mesh: MeshOptions::default(),
+            cut: true,
+            overlay: true,
+            focus: None,
+        }
     }
 }
 
@@ -127,6 +138,7 @@ impl Composer {
                 && let Some((min, max)) = bounds(nodes)
             {
                 let (camera, cut) = default_view(min, max, aspect);
+                let camera = options.focus.map_or(camera, |f| f.camera());
                 self.view = Some((camera, options.cut.then_some(cut)));
                 let along = nodes.iter().map(|&p| cut.normal.dot(p));
                 let (lo, hi) = along.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));

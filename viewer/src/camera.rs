@@ -148,6 +148,41 @@ impl OrbitCamera {
     }
 }
 
+/// A close view of one spot instead of the whole model: the camera looks at `target` from
+/// direction `from` (pointing from the target toward the eye), far enough that `span_m`
+/// metres fit the image's height at the target's distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Focus {
+    /// Point looked at, metres, model frame.
+    pub target: Vec3,
+    /// Direction from the target toward the eye (any length but zero).
+    pub from: Vec3,
+    /// Height of the view at the target, metres.
+    pub span_m: f32,
+}
+
+impl Focus {
+    /// The camera of this focus (30° vertical field of view, y up).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use lamina_viewer::camera::Focus;
+    ///
+    /// let f = Focus { target: Vec3::ZERO, from: Vec3::Z, span_m: 0.1 };
+    /// let c = f.camera();
+    /// // 0.1 m fill the height: half of it over the distance is tan(15°).
+    /// assert!((0.05 / c.eye.z - 15f32.to_radians().tan()).abs() < 1e-6);
+    /// ```
+    pub fn camera(&self) -> Camera {
+        let fov_y = 30f32.to_radians();
+        let distance = self.span_m.max(1e-4) * 0.5 / (fov_y * 0.5).tan();
+        let from = self.from.try_normalize().unwrap_or(Vec3::Z);
+        Camera { eye: self.target + from * distance, target: self.target, up: Vec3::Y, fov_y }
+    }
+}
+
 /// The axis-aligned bounds of `points` (`None` when empty or not finite).
 pub fn bounds(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
     let first = *points.first()?;

@@ -43,7 +43,8 @@ struct Args {
     /// Stop after this many frames (default: run until SIGINT/SIGTERM).
     #[arg(long)]
     frames: Option<u64>,
-    /// Directory for PNG frames (headless; without it no frames are written) and for the
+    /// Directory for PNG frames (headless; without it no frames are written), with
+    /// `frames.csv` listing each frame's core sequence, time, tool and camera, and for the
     /// window's screenshots (key S; default: the current directory).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -85,6 +86,14 @@ struct Args {
     /// Spring wireframe.
     #[arg(long, value_enum, default_value_t = Springs::Removed)]
     springs: Springs,
+    /// Look closely at one spot: `X,Y,Z,SPAN` (metres, model frame: the point looked at and
+    /// the height of the view there), from the direction of --focus-from. Default: the whole
+    /// model from above and in front of the cut.
+    #[arg(long, value_parser = parse_focus)]
+    focus: Option<[f32; 4]>,
+    /// Direction from the --focus point toward the eye, `X,Y,Z` (model frame, y up).
+    #[arg(long, default_value = "1,0.9,0.3", value_parser = parse_direction, requires = "focus")]
+    focus_from: [f32; 3],
     /// Do not cut the model open.
     #[arg(long)]
     no_cut: bool,
@@ -111,6 +120,25 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+fn parse_numbers<const N: usize>(s: &str, what: &str) -> Result<[f32; N], String> {
+    let v: Vec<f32> =
+        s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match <[f32; N]>::try_from(v) {
+        Ok(a) if a.iter().all(|c| c.is_finite()) => Ok(a),
+        _ => Err(format!("'{s}': expected {what}")),
+    }
+}
+
+fn parse_focus(s: &str) -> Result<[f32; 4], String> {
+    let f = parse_numbers::<4>(s, "four finite numbers X,Y,Z,SPAN (metres)")?;
+    if f[3] > 0.0 { Ok(f) } else { Err(format!("'{s}': the span (the fourth number) must be positive, metres")) }
+}
+
+fn parse_direction(s: &str) -> Result<[f32; 3], String> {
+    let d = parse_numbers::<3>(s, "three finite numbers X,Y,Z")?;
+    if d.iter().any(|c| *c != 0.0) { Ok(d) } else { Err(format!("'{s}': the direction must not be zero")) }
+}
+
 fn parse_samples(s: &str) -> Result<u32, String> {
     match s {
         "1" => Ok(1),
@@ -135,6 +163,11 @@ fn options(args: &Args) -> ViewerOptions {
         },
         cut: !args.no_cut,
         overlay: !args.no_overlay,
+        focus: args.focus.map(|[x, y, z, span_m]| lamina_viewer::camera::Focus {
+            target: glam::Vec3::new(x, y, z),
+            from: glam::Vec3::from_array(args.focus_from),
+            span_m,
+        }),
     }
 }
 
@@ -213,6 +246,10 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
     }
     let mut viewer = HeadlessViewer::new(options(args)).map_err(|e| e.to_string())?;
     println!("lamina-viewer: {} on {}, {}x{}", source.describe(), viewer.adapter(), args.size.0, args.size.1);
+    let mut index = match &args.out {
+        Some(dir) => Some(FrameIndex::create(&dir.join(FrameIndex::FILE))?),
+        None => None,
+    };
     let every = args.every.max(1);
     let verbose = args.verbose || args.frames.is_some_and(|n| n <= 100);
     let mut figures = Figures::default();
@@ -273,6 +310,9 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                     let (w, h) = viewer.size();
                     let path = dir.join(format!("frame_{rendered:05}.png"));
                     write_png(&path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
+                    if let Some(index) = index.as_mut() {
+                        index.row(&path, &frame, viewer.composer().view().map(|v| v.0))?;
+                    }
                 }
                 if let (Some(n), Some(path)) = (args.screenshot_after_frames, &args.screenshot)
                     && rendered + 1 >= n
@@ -304,6 +344,53 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
     }
     report(&figures, rendered, run_start.elapsed());
     Ok(())
+}
+
+/// `frames.csv` beside the headless PNG frames: one row per frame written, with what it
+/// shows (core sequence and time, the tool) and the camera it was drawn with, so a frame can
+/// be matched to the run and a model point to its pixel (`Camera::view_proj`).
+struct FrameIndex {
+    file: std::fs::File,
+    path: PathBuf,
+}
+
+impl FrameIndex {
+    const FILE: &str = "frames.csv";
+    const HEADER: &str = "file,sequence,sim_time_s,tool_x_m,tool_y_m,tool_z_m,tool_radius_m,\
+                          eye_x_m,eye_y_m,eye_z_m,target_x_m,target_y_m,target_z_m,up_x,up_y,up_z,fov_y_rad";
+
+    fn create(path: &std::path::Path) -> Result<Self, String> {
+        use std::io::Write;
+        let mut file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        writeln!(file, "{}", Self::HEADER).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(Self { file, path: path.to_path_buf() })
+    }
+
+    /// Empty tool columns: no tool; empty camera columns: no model drawn yet.
+    fn row(
+        &mut self,
+        png: &std::path::Path,
+        frame: &Frame,
+        camera: Option<lamina_viewer::camera::Camera>,
+    ) -> Result<(), String> {
+        use std::io::Write;
+        let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let tool = frame.tool.map_or_else(
+            || ",,,".to_string(),
+            |t| format!("{},{},{},{}", t.center.x, t.center.y, t.center.z, t.radius),
+        );
+        let cam = camera.map_or_else(
+            || ",,,,,,,,,".to_string(),
+            |c| {
+                format!(
+                    "{},{},{},{},{},{},{},{},{},{}",
+                    c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_y
+                )
+            },
+        );
+        writeln!(self.file, "{name},{},{},{tool},{cam}", frame.sequence, frame.sim_time_s)
+            .map_err(|e| format!("{}: {e}", self.path.display()))
+    }
 }
 
 fn report(f: &Figures, rendered: u64, wall: Duration) {

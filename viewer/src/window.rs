@@ -624,8 +624,8 @@ pub fn run(
     }
     let adapter = app.surface.as_ref().map_or_else(String::new, |s| format!(" on {}", s.gpu.describe()));
     println!(
-        "window{adapter}: {} frames, frame time {}",
-        app.frame_times.len(),
+        "window{adapter}: {} frames shown on screen, frame time {}",
+        app.drawn,
         app.frame_times.summary().to_ms_string()
     );
     if !app.latency.is_empty() {

@@ -1,0 +1,200 @@
+//! The press of `lamina demo` can be seen in its frames: the real demo runs headless (core,
+//! haptics with the scripted device, viewer writing PNG frames and `frames.csv`), and the
+//! frame where the tool is lowest (the 12 mm press) is compared with the last frame before
+//! the press where it is highest (the tool 1 cm above the skin, the limb at rest).
+//!
+//! Regions, from the camera each frame was drawn with (`frames.csv`, through
+//! `Camera::view_proj`, the viewer's own projection):
+//! - contact: the skin around the pressed tool, between 1.1 and 2.5 projected tool radii from
+//!   the tool's projected centre and below it in the image (the ball itself is left out, as
+//!   is its shaft, which leans up from the ball, and the raised tool of the rest frame, two
+//!   radii higher);
+//! - far: the skin facing the camera 6 cm along the limb from the press, a disc of one
+//!   projected tool radius.
+//!
+//! The contact region must change by a mean of more than [`CONTACT_MIN_LEVELS`] (of 255,
+//! over the RGB channels), the far region by less than [`FAR_MAX_LEVELS`].
+//!
+//! Skips (prints SKIP) without a GPU adapter (Vulkan or GL, lavapipe will do), unless
+//! `LAMINA_REQUIRE_GPU_SOFTWARE=1`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use glam::{Vec3, Vec4};
+use lamina_viewer::app::{HeadlessViewer, ViewerOptions};
+use lamina_viewer::camera::Camera;
+use lamina_viewer::png_io::read_png;
+
+/// Least mean change of the contact region, levels of 255.
+const CONTACT_MIN_LEVELS: f64 = 8.0;
+/// Largest mean change of the far region, levels of 255.
+const FAR_MAX_LEVELS: f64 = 1.0;
+
+fn adapter_or_skip() -> bool {
+    match HeadlessViewer::new(ViewerOptions::default()) {
+        Ok(_) => true,
+        Err(e) => {
+            if std::env::var("LAMINA_REQUIRE_GPU_SOFTWARE").as_deref() == Ok("1") {
+                panic!("LAMINA_REQUIRE_GPU_SOFTWARE=1 but no GPU adapter is available: {e}");
+            }
+            eprintln!("SKIP demo press image test: {e}");
+            false
+        }
+    }
+}
+
+/// `lamina` beside this package's `lamina-viewer`, with `lamina-haptics`, built if absent.
+fn lamina_bin() -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_lamina-viewer")).with_file_name("lamina");
+    if !path.exists() || !path.with_file_name("lamina-haptics").exists() {
+        let release = path.parent().is_some_and(|d| d.ends_with("release"));
+        let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+        cmd.args(["build", "-p", "lamina", "-p", "lamina-haptics", "--bins"]);
+        if release {
+            cmd.arg("--release");
+        }
+        assert!(cmd.status().expect("cargo build").success(), "building lamina failed");
+    }
+    path
+}
+
+/// One row of `frames.csv` with a tool and a camera.
+#[derive(Debug, Clone)]
+struct Row {
+    file: String,
+    tool: Vec3,
+    radius: f32,
+    camera: Camera,
+}
+
+fn read_index(path: &Path) -> Vec<Row> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
+    let v3 = |f: &[&str], names: [&str; 3]| -> Option<Vec3> {
+        let c: Vec<f32> = names.iter().map(|n| f[col(n)].parse::<f32>().ok()).collect::<Option<_>>()?;
+        Some(Vec3::new(c[0], c[1], c[2]))
+    };
+    lines
+        .filter_map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            Some(Row {
+                file: f[col("file")].to_string(),
+                tool: v3(&f, ["tool_x_m", "tool_y_m", "tool_z_m"])?,
+                radius: f[col("tool_radius_m")].parse().ok()?,
+                camera: Camera {
+                    eye: v3(&f, ["eye_x_m", "eye_y_m", "eye_z_m"])?,
+                    target: v3(&f, ["target_x_m", "target_y_m", "target_z_m"])?,
+                    up: v3(&f, ["up_x", "up_y", "up_z"])?,
+                    fov_y: f[col("fov_y_rad")].parse().ok()?,
+                },
+            })
+        })
+        .collect()
+}
+
+/// Pixel position (x right, y down) of model point `p`.
+fn project(camera: &Camera, p: Vec3, w: u32, h: u32) -> (f32, f32) {
+    let clip = camera.view_proj(w as f32 / h as f32) * Vec4::new(p.x, p.y, p.z, 1.0);
+    let ndc = clip.truncate() / clip.w;
+    ((ndc.x + 1.0) * 0.5 * w as f32, (1.0 - ndc.y) * 0.5 * h as f32)
+}
+
+/// Mean absolute RGB difference, levels, over the pixels `keep` accepts; and their count.
+fn mean_difference(a: &[u8], b: &[u8], w: u32, h: u32, keep: impl Fn(f32, f32) -> bool) -> (f64, usize) {
+    let (mut sum, mut n) = (0u64, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            if !keep(x as f32 + 0.5, y as f32 + 0.5) {
+                continue;
+            }
+            let i = 4 * (y * w + x) as usize;
+            sum += (0..3).map(|c| u64::from(a[i + c].abs_diff(b[i + c]))).sum::<u64>();
+            n += 1;
+        }
+    }
+    (sum as f64 / (3 * n.max(1)) as f64, n)
+}
+
+#[test]
+fn demo_frames_show_the_press_works() {
+    if !adapter_or_skip() {
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("lamina_demo_image_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let mut demo = Command::new(lamina_bin())
+        .args(["demo", "--out"])
+        .arg(&out)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("starting lamina demo");
+    let stdout = demo.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || std::io::read_to_string(stdout).unwrap_or_default());
+    // A watchdog against a hang, not a speed bound.
+    let started = Instant::now();
+    let status = loop {
+        if let Some(s) = demo.try_wait().expect("waiting for lamina demo") {
+            break s;
+        }
+        if started.elapsed() > Duration::from_secs(180) {
+            let _ = demo.kill();
+            panic!("lamina demo did not finish within 180 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let text = reader.join().unwrap();
+    assert!(status.success(), "{status}\n{text}");
+
+    let frames = out.join("frames");
+    let rows = read_index(&frames.join("frames.csv"));
+    assert!(rows.len() > 10, "{} frames with a tool in frames.csv\n{text}", rows.len());
+    let deep_at = (0..rows.len()).min_by(|&a, &b| rows[a].tool.y.total_cmp(&rows[b].tool.y)).unwrap();
+    let rest_at =
+        (0..deep_at).max_by(|&a, &b| rows[a].tool.y.total_cmp(&rows[b].tool.y)).expect("frames before the press");
+    let (deep, rest) = (&rows[deep_at], &rows[rest_at]);
+    let lowered_mm = (rest.tool.y - deep.tool.y) * 1e3;
+    assert!(lowered_mm > 20.0, "the tool went {lowered_mm:.1} mm down between {} and {}", rest.file, deep.file);
+
+    let (w, h, a) = read_png(&frames.join(&rest.file)).expect("the rest frame");
+    let (w2, h2, b) = read_png(&frames.join(&deep.file)).expect("the deepest frame");
+    assert_eq!((w, h), (w2, h2));
+    let cam = &deep.camera;
+    let (cx, cy) = project(cam, deep.tool, w, h);
+    let right = (cam.target - cam.eye).cross(cam.up).normalize();
+    let (rx, ry) = project(cam, deep.tool + right * deep.radius, w, h);
+    let r = ((rx - cx).powi(2) + (ry - cy).powi(2)).sqrt();
+    let (qx, qy) = project(&rest.camera, rest.tool, w, h);
+    let contact = |x: f32, y: f32| {
+        let d = ((x - cx).powi(2) + (y - cy).powi(2)).sqrt();
+        let d_rest = ((x - qx).powi(2) + (y - qy).powi(2)).sqrt();
+        y > cy && (1.1 * r..2.5 * r).contains(&d) && d_rest > 1.1 * r
+    };
+    // The skin facing the camera (+x side, mid-height) 6 cm along the limb.
+    let far_point = Vec3::new(deep.tool.x + 0.05, deep.tool.y - 0.05, deep.tool.z + 0.06);
+    let (fx, fy) = project(cam, far_point, w, h);
+    assert!((0.0..w as f32).contains(&fx) && (0.0..h as f32).contains(&fy), "far point at ({fx}, {fy})");
+    let far = |x: f32, y: f32| ((x - fx).powi(2) + (y - fy).powi(2)).sqrt() < r;
+    let (contact_diff, contact_n) = mean_difference(&a, &b, w, h, contact);
+    let (far_diff, far_n) = mean_difference(&a, &b, w, h, far);
+    eprintln!(
+        "rest {} (tool y {:.1} mm), deepest {} (tool y {:.1} mm); tool at ({cx:.0}, {cy:.0}) px, radius {r:.1} px; \
+         contact region {contact_n} px, mean change {contact_diff:.2} levels; far region at ({fx:.0}, {fy:.0}) {far_n} px, \
+         mean change {far_diff:.2} levels",
+        rest.file,
+        rest.tool.y * 1e3,
+        deep.file,
+        deep.tool.y * 1e3
+    );
+    assert!(r > 20.0, "the tool is {r:.1} px in radius: the demo's view is too far away");
+    assert!(contact_n > 1000 && far_n > 500, "regions of {contact_n} and {far_n} pixels");
+    assert!(contact_diff > CONTACT_MIN_LEVELS, "contact region changed by {contact_diff:.2} levels");
+    assert!(far_diff < FAR_MAX_LEVELS, "far region changed by {far_diff:.2} levels");
+    let _ = std::fs::remove_dir_all(&out);
+}
