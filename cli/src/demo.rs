@@ -162,13 +162,13 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
 
     // The viewer first: it waits for the core and must not miss its topology.
     let mut viewer = Command::new(sibling("lamina-viewer")?);
-    viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "5"]);
+    viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "2"]);
     viewer.arg("--frames").arg(format!("{}", (seconds * 60.0).max(10.0) as u64));
     viewer.arg("--out").arg(&frames_dir);
     if let Some(s) = scene {
         viewer.arg("--scene").arg(s);
     }
-    if let Some(focus) = haptics_args.as_ref().and_then(|a| focus(a)) {
+    if let Some(focus) = haptics_args.as_ref().and_then(focus) {
         viewer.arg("--focus").arg(focus);
     }
     let viewer_log = out.join("viewer.log");
