@@ -4,7 +4,8 @@
 //! - the peak press under the tool: the largest downward displacement of a node whose
 //!   horizontal distance from the tool's centre is less than the tool's radius (the skin
 //!   under the sphere), from its position in the first frame received (the limb at rest,
-//!   settled under gravity, before the tool arrives), while no button is held;
+//!   settled under gravity, before the tool arrives), before the first grasp (the skin's
+//!   recoil and the grasp's pull-back after a grasp are not the press);
 //! - the peak pull: the largest upward displacement of such a node while button 0 (grasp)
 //!   is held;
 //! - the peak force on the tool: the largest magnitude of the force the core reports on
@@ -35,7 +36,7 @@ pub struct Peaks {
     pub pull_m: f64,
     /// Largest force on the tool the core reported, N.
     pub force_n: f64,
-    /// Largest force on the tool while no button was held (pressing), N.
+    /// Largest force on the tool before the first grasp (pressing), N.
     pub press_force_n: f64,
     /// Whether every force read was finite.
     pub force_finite: bool,
@@ -126,10 +127,12 @@ fn watch(
     let mut rest: Vec<[f32; 3]> = Vec::new();
     let mut centre: Option<[f64; 3]> = None;
     let mut buttons = 0u32;
+    let mut grasped = false;
     while !stop.load(Ordering::Relaxed) {
         if let Ok(Some(c)) = tool.latest() {
             let c = c.message();
             buttons = c.buttons;
+            grasped |= buttons & 1 != 0;
             if c.tool_radius_m > 0.0 && c.tool_radius_m.is_finite() {
                 radius = c.tool_radius_m;
             }
@@ -140,7 +143,7 @@ fn watch(
             let f = m.force.iter().map(|v| v * v).sum::<f64>().sqrt();
             if f.is_finite() {
                 peaks.force_n = peaks.force_n.max(f);
-                if buttons & 1 == 0 {
+                if !grasped {
                     peaks.press_force_n = peaks.press_force_n.max(f);
                 }
             } else {
@@ -158,7 +161,7 @@ fn watch(
                     continue;
                 }
                 if let Some(c) = centre {
-                    under_tool(&rest, x, c, radius, buttons, &mut peaks);
+                    under_tool(&rest, x, c, radius, buttons, grasped, &mut peaks);
                 }
             }
             Ok(None) => {}
@@ -169,7 +172,16 @@ fn watch(
 }
 
 /// Updates `peaks` with the nodes under a tool at `centre` of `radius` (model frame, y up).
-fn under_tool(rest: &[[f32; 3]], x: &[[f32; 3]], centre: [f64; 3], radius: f64, buttons: u32, peaks: &mut Peaks) {
+/// `grasped`: a grasp was made earlier in the run (press figures are no longer taken).
+fn under_tool(
+    rest: &[[f32; 3]],
+    x: &[[f32; 3]],
+    centre: [f64; 3],
+    radius: f64,
+    buttons: u32,
+    grasped: bool,
+    peaks: &mut Peaks,
+) {
     let mut top = f64::NEG_INFINITY;
     for (r, p) in rest.iter().zip(x) {
         let (dx, dz) = (f64::from(r[0]) - centre[0], f64::from(r[2]) - centre[2]);
@@ -180,11 +192,11 @@ fn under_tool(rest: &[[f32; 3]], x: &[[f32; 3]], centre: [f64; 3], radius: f64, 
         top = top.max(f64::from(r[1]));
         if buttons & 1 != 0 {
             peaks.pull_m = peaks.pull_m.max(dy);
-        } else {
+        } else if !grasped {
             peaks.press_m = peaks.press_m.max(-dy);
         }
     }
-    if buttons & 1 == 0 && top.is_finite() {
+    if !grasped && top.is_finite() {
         peaks.tool_depth_m = peaks.tool_depth_m.max(top - (centre[1] - radius));
     }
 }
@@ -198,13 +210,15 @@ mod tests {
         let rest = [[0.0, 0.0, 0.0], [0.02, 0.0, 0.0], [0.0, -0.01, 0.004]];
         let x = [[0.0, -0.005, 0.0], [0.02, -0.009, 0.0], [0.0, -0.012, 0.004]];
         let mut p = Peaks::default();
-        under_tool(&rest, &x, [0.0, 0.006, 0.0], 0.01, 0, &mut p);
+        under_tool(&rest, &x, [0.0, 0.006, 0.0], 0.01, 0, false, &mut p);
         // The node 2 cm away (9 mm down) is outside the 1 cm footprint.
         assert!((p.press_m - 0.005).abs() < 1e-6, "{p:?}");
         assert!((p.tool_depth_m - 0.004).abs() < 1e-9, "{p:?}");
         let pulled = [[0.0, 0.003, 0.0], [0.02, 0.0, 0.0], [0.0, -0.01, 0.004]];
-        under_tool(&rest, &pulled, [0.0, 0.006, 0.0], 0.01, 1, &mut p);
+        under_tool(&rest, &pulled, [0.0, 0.006, 0.0], 0.01, 1, true, &mut p);
         assert!((p.pull_m - 0.003).abs() < 1e-6, "{p:?}");
-        assert!((p.press_m - 0.005).abs() < 1e-6, "pulling leaves the press peak: {p:?}");
+        // A deeper dip after the grasp (the skin's recoil) is not the press.
+        under_tool(&rest, &x.map(|q| [q[0], q[1] - 0.01, q[2]]), [0.0, 0.0, 0.0], 0.01, 0, true, &mut p);
+        assert!((p.press_m - 0.005).abs() < 1e-6, "after a grasp the press peak stays: {p:?}");
     }
 }
