@@ -225,6 +225,23 @@ enum StudyCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The limb pressed 1-10 mm by the scene's sphere at a few sites, force against depth,
+    /// beside published in-vivo indentation of limb soft tissue (Hertz contact).
+    Indentation {
+        /// Scene files (repeatable); default: the built-in default scene and
+        /// config/scenes/thigh.toml when it exists.
+        #[arg(long)]
+        scene: Vec<PathBuf>,
+        /// Sites per scene, spread around the limb at mid-length.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=64))]
+        sites: u32,
+        /// Deepest press, mm (1 mm steps).
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=30))]
+        depth_mm: u32,
+        /// Output folder for the CSV and PNG.
+        #[arg(long, default_value = "out/study")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -336,6 +353,9 @@ fn run(cli: Cli) -> Result<(), String> {
             study::accuracy(&scene, &out, quick, seconds)
         }
         Command::Study { what: StudyCommand::Stability { json } } => study::stability(json),
+        Command::Study { what: StudyCommand::Indentation { scene, sites, depth_mm, out } } => {
+            study::indentation(&scene, sites as usize, depth_mm, &out)
+        }
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = run::load_scene(&scene)?;
             bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))

@@ -1,4 +1,4 @@
-//! `lamina study accuracy` and `lamina study stability`.
+//! `lamina study accuracy`, `lamina study stability` and `lamina study indentation`.
 
 use super::machine;
 use super::plot::{Series, log_log_lines};
@@ -8,6 +8,7 @@ use lamina_core::study::{
     AccuracyCase, AccuracyRow, AccuracyStudy, PRESS_DEPTH_M, REFERENCE_TOLERANCE, accuracy_study, run_case,
     stability_cases,
 };
+use lamina_core::study::{PUBLISHED_MODULI, effective_modulus, hertz_force, indentation as indent_scene};
 use std::path::Path;
 
 /// Wall time per simulated second that a 1 kHz core may spend on physics: half of real
@@ -230,5 +231,66 @@ pub fn stability(json: bool) -> Result<(), String> {
             println!("  {:<33} {}", case.name, case.description);
         }
     }
+    Ok(())
+}
+
+/// Runs `lamina study indentation`: every scene's sites pressed, printed against the published
+/// moduli's Hertz forces, written as CSV and a log-log plot.
+pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, out: &Path) -> Result<(), String> {
+    let mut loaded = Vec::new();
+    if scenes.is_empty() {
+        loaded.push(Scene::builtin_default());
+        let thigh = Path::new("config/scenes/thigh.toml");
+        if thigh.is_file() {
+            loaded.push(Scene::load(thigh).map_err(|e| e.to_string())?);
+        }
+    }
+    for p in scenes {
+        loaded.push(Scene::load(p).map_err(|e| e.to_string())?);
+    }
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut csv = String::from("scene,site,depth_m,force_n,effective_modulus_pa\n");
+    let mut series = Vec::new();
+    let mut radius_m = 0.012;
+    println!("indentation: a sphere lowered 1 mm at a time (10 mm/s, each depth held 0.2 s), force along the press");
+    for scene in &loaded {
+        let (radius, curves) = indent_scene(scene, sites, depth_mm)?;
+        radius_m = radius;
+        println!("\n{} (sphere radius {:.1} mm)", scene.name, radius * 1e3);
+        print!("{:<44}", "site \\ depth mm");
+        for d in [1, 2, 4, 6, 8, 10].iter().filter(|d| **d <= depth_mm) {
+            print!(" {d:>8}");
+        }
+        println!("   E_eff at deepest");
+        for c in &curves {
+            print!("{:<44}", c.site);
+            for d in [1usize, 2, 4, 6, 8, 10].iter().filter(|d| **d as u32 <= depth_mm) {
+                print!(" {:>7.4}N", c.force_n[d - 1]);
+            }
+            let (d, f) = (c.depth_m[c.depth_m.len() - 1], c.force_n[c.force_n.len() - 1]);
+            println!("   {:.2} kPa", effective_modulus(f, radius, d) / 1e3);
+            for (d, f) in c.depth_m.iter().zip(&c.force_n) {
+                csv.push_str(&format!("{},{},{d},{f},{}\n", scene.name, c.site, effective_modulus(*f, radius, *d)));
+            }
+            series.push(Series {
+                name: format!("{}: {}", scene.name, c.site),
+                points: c.depth_m.iter().map(|d| d * 1e3).zip(c.force_n.iter().copied()).collect(),
+            });
+        }
+    }
+    println!("\npublished in-vivo moduli as the same sphere's Hertz force (nu = 0.5)");
+    for m in PUBLISHED_MODULI {
+        let at = |mm: f64| hertz_force(m.modulus_pa, radius_m, mm * 1e-3);
+        println!("{:<58} {:>6.1} kPa: {:.4} N at 1 mm, {:.3} N at 8 mm", m.label, m.modulus_pa / 1e3, at(1.0), at(8.0));
+        series.push(Series {
+            name: format!("{} ({:.1} kPa)", m.label, m.modulus_pa / 1e3),
+            points: (1..=depth_mm).map(|d| (f64::from(d), at(f64::from(d)))).collect(),
+        });
+    }
+    let csv_path = out.join("indentation.csv");
+    std::fs::write(&csv_path, csv).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let png = out.join("indentation.png");
+    log_log_lines(&png, "indentation: force against depth", "depth (mm)", "force (N)", &series, true)?;
+    println!("\nwritten: {} and {}", csv_path.display(), png.display());
     Ok(())
 }

@@ -1,10 +1,12 @@
-//! Measuring the solver: accuracy against time, and stability in hard cases.
+//! Measuring the solver: accuracy against time, stability in hard cases, and the limb's
+//! indentation force against published tissue.
 //!
 //! Both studies are library code so that the `lamina study` commands and the tests run the
 //! very same cases.
 
 mod accuracy;
 mod energy;
+mod indentation;
 mod reference;
 mod stability;
 
@@ -12,5 +14,8 @@ pub use accuracy::{
     AccuracyCase, AccuracyRow, AccuracyStudy, PRESS_DEPTH_M, REFERENCE_TOLERANCE, ReferenceSummary, accuracy_study,
 };
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
+pub use indentation::{
+    IndentationCurve, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus, hertz_force, indentation,
+};
 pub use reference::{MAX_REFERENCE_STEPS, Reference, ReferenceError, max_distance};
 pub use stability::{StabilityCase, StabilityRow, run_case, stability_cases};
