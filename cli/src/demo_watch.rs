@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use lamina_bridge::{Bridge, BridgeConfig, FeedbackSubscriber, NodesSubscriber, ToolSubscriber};
+use lamina_bridge::{Bridge, BridgeConfig, FeedbackSubscriber, NodesSubscriber, SampleReceiveError, ToolSubscriber};
 
 /// The figures of one demo run.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -164,7 +164,8 @@ fn watch(
                     under_tool(&rest, x, c, radius, buttons, grasped, &mut peaks);
                 }
             }
-            Ok(None) => {}
+            // A signal (the demo's Ctrl-C) interrupts the wait: check the stop flag again.
+            Ok(None) | Err(SampleReceiveError::Interrupted) => {}
             Err(e) => return Err(format!("demo watch: node frames: {e}")),
         }
     }
