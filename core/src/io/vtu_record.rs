@@ -19,7 +19,6 @@
 //! [`VtuRecorder::create`].
 
 use super::error::VtuWriteError;
-use super::format::escape_attribute;
 use crate::model::Model;
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -255,24 +254,7 @@ impl VtuRecorder {
 
     /// Writes the collection to a temporary file and renames it into place.
     fn write_collection(&self) -> Result<(), VtuWriteError> {
-        let mut text = String::from(
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n",
-        );
-        let mut float = zmij::Buffer::new();
-        for (time, file) in &self.frames {
-            text.push_str("    <DataSet timestep=\"");
-            text.push_str(float.format(*time));
-            text.push_str("\" group=\"\" part=\"0\" file=\"");
-            escape_attribute(file, &mut text);
-            text.push_str("\"/>\n");
-        }
-        text.push_str("  </Collection>\n</VTKFile>\n");
-        let path = self.collection_path();
-        let tmp = self.dir.join(".run.pvd.tmp");
-        let io_error =
-            |e: std::io::Error| VtuWriteError::Io { file: path.display().to_string(), message: e.to_string() };
-        fs::write(&tmp, text).map_err(io_error)?;
-        fs::rename(&tmp, &path).map_err(io_error)
+        super::vtu_series::write_pvd(&self.frames, &self.collection_path(), &self.dir.join(".run.pvd.tmp"))
     }
 }
 

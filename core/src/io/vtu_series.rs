@@ -99,23 +99,26 @@ impl VtuSeriesWriter {
 
     /// Writes the collection to a temporary file and renames it into place.
     fn write_collection(&self) -> Result<(), VtuWriteError> {
-        let mut text = String::from(
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n",
-        );
-        let mut float = zmij::Buffer::new();
-        for (time, file) in &self.frames {
-            text.push_str("    <DataSet timestep=\"");
-            text.push_str(float.format(*time));
-            text.push_str("\" group=\"\" part=\"0\" file=\"");
-            escape_attribute(file, &mut text);
-            text.push_str("\"/>\n");
-        }
-        text.push_str("  </Collection>\n</VTKFile>\n");
-        let path = self.collection_path();
-        let tmp = self.dir.join(format!(".{}.pvd.tmp", self.stem));
-        let io_error =
-            |e: std::io::Error| VtuWriteError::Io { file: path.display().to_string(), message: e.to_string() };
-        fs::write(&tmp, text).map_err(io_error)?;
-        fs::rename(&tmp, &path).map_err(io_error)
+        write_pvd(&self.frames, &self.collection_path(), &self.dir.join(format!(".{}.pvd.tmp", self.stem)))
     }
+}
+
+/// Writes a `.pvd` collection listing `frames` (simulated time s, file name) to `tmp`, then
+/// renames it to `path`, so a reader never sees half a collection.
+pub(crate) fn write_pvd(frames: &[(f64, String)], path: &Path, tmp: &Path) -> Result<(), VtuWriteError> {
+    let mut text = String::from(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n",
+    );
+    let mut float = zmij::Buffer::new();
+    for (time, file) in frames {
+        text.push_str("    <DataSet timestep=\"");
+        text.push_str(float.format(*time));
+        text.push_str("\" group=\"\" part=\"0\" file=\"");
+        escape_attribute(file, &mut text);
+        text.push_str("\"/>\n");
+    }
+    text.push_str("  </Collection>\n</VTKFile>\n");
+    let io_error = |e: std::io::Error| VtuWriteError::Io { file: path.display().to_string(), message: e.to_string() };
+    fs::write(tmp, text).map_err(io_error)?;
+    fs::rename(tmp, path).map_err(io_error)
 }
