@@ -13,7 +13,6 @@
 //! [`read_bytes`] and [`read_text`] then read at most the cap, so a file that grows while it
 //! is read is refused rather than followed.
 
-use std::fmt;
 use std::fs::{File, Metadata};
 use std::io::Read;
 use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
@@ -47,9 +46,10 @@ impl FileLimit {
 }
 
 /// Why a file was not read.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FileReadError {
     /// The file could not be opened or read.
+    #[error("{path}: {message}")]
     Io {
         /// File.
         path: PathBuf,
@@ -57,6 +57,7 @@ pub enum FileReadError {
         message: String,
     },
     /// The path is not a regular file.
+    #[error("{path}: is {kind}, not a regular file; a {what} must be a regular file")]
     NotRegular {
         /// File.
         path: PathBuf,
@@ -66,6 +67,7 @@ pub enum FileReadError {
         what: &'static str,
     },
     /// The file is larger than its format's cap.
+    #[error("{path}: {} is larger than a {what} may be (at most {})", format_bytes(*.bytes), format_bytes(*.max_bytes))]
     TooLarge {
         /// File.
         path: PathBuf,
@@ -77,6 +79,7 @@ pub enum FileReadError {
         what: &'static str,
     },
     /// Parsing the file would take more memory than is available.
+    #[error("{path}: {error}")]
     Memory {
         /// File.
         path: PathBuf,
@@ -84,6 +87,7 @@ pub enum FileReadError {
         error: MemoryCheckError,
     },
     /// A text format holds bytes that are not UTF-8.
+    #[error("{path}:{line}: not UTF-8 text")]
     NotUtf8 {
         /// File.
         path: PathBuf,
@@ -91,28 +95,6 @@ pub enum FileReadError {
         line: usize,
     },
 }
-
-impl fmt::Display for FileReadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            Self::NotRegular { path, kind, what } => {
-                write!(f, "{}: is {kind}, not a regular file; a {what} must be a regular file", path.display())
-            }
-            Self::TooLarge { path, bytes, max_bytes, what } => write!(
-                f,
-                "{}: {} is larger than a {what} may be (at most {})",
-                path.display(),
-                format_bytes(*bytes),
-                format_bytes(*max_bytes)
-            ),
-            Self::Memory { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::NotUtf8 { path, line } => write!(f, "{}:{line}: not UTF-8 text", path.display()),
-        }
-    }
-}
-
-impl std::error::Error for FileReadError {}
 
 fn kind_of(meta: &Metadata) -> Option<&'static str> {
     let t = meta.file_type();

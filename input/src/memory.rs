@@ -93,6 +93,7 @@ pub enum MemoryCheckError {
     },
 }
 
+// Written by hand: `thiserror` would take the `source` field for the error's cause.
 impl fmt::Display for MemoryCheckError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

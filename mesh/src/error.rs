@@ -4,7 +4,6 @@
 //! topology errors give counts and the coordinates of the first offending edge (the edge of
 //! the lowest-numbered triangle, in file order), in the file's own units.
 
-use std::fmt;
 use std::path::PathBuf;
 
 use lamina_input::FileReadError;
@@ -12,18 +11,23 @@ use lamina_input::FileReadError;
 use crate::units::Units;
 
 /// Why a mesh file could not be loaded (see [`crate::load()`]).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MeshLoadError {
     /// The file could not be read: missing, not a regular file (a FIFO, a device), larger
     /// than [`MESH_FILE`](crate::raw::MESH_FILE)'s cap, or more than the memory available.
+    #[error(transparent)]
     Read(FileReadError),
     /// The file name does not end in `.stl` or `.obj` (case-insensitive).
+    #[error("{path}: unsupported mesh format (expected a .stl or .obj file)")]
     UnsupportedFormat {
         /// File.
         path: PathBuf,
     },
     /// A binary STL is shorter than its header's triangle count requires, or shorter than the
     /// 84-byte header itself.
+    #[error(
+        "{path}: truncated binary STL: header declares {declared_triangles} triangles ({expected_bytes} bytes) but the file has {actual_bytes} bytes ({complete_triangles} complete triangles; triangle {complete_triangles} is cut)"
+    )]
     StlTruncated {
         /// File.
         path: PathBuf,
@@ -37,6 +41,7 @@ pub enum MeshLoadError {
         actual_bytes: u64,
     },
     /// A binary STL vertex has a NaN or infinite coordinate.
+    #[error("{path}: binary STL triangle {triangle} has a NaN or infinite coordinate")]
     StlNonFinite {
         /// File.
         path: PathBuf,
@@ -45,6 +50,10 @@ pub enum MeshLoadError {
     },
     /// A binary STL vertex has a coordinate beyond
     /// ±[`MAX_ABS_COORDINATE`](crate::raw::MAX_ABS_COORDINATE).
+    #[error(
+        "{path}: binary STL triangle {triangle} has coordinate {value:e}, beyond ±{:e}, the largest a mesh file may hold",
+        crate::raw::MAX_ABS_COORDINATE
+    )]
     StlCoordinateTooLarge {
         /// File.
         path: PathBuf,
@@ -54,6 +63,7 @@ pub enum MeshLoadError {
         value: f64,
     },
     /// An ASCII STL is malformed: unexpected keyword, bad number, missing `endloop`, ...
+    #[error("{path}:{line}: {message}")]
     StlSyntax {
         /// File.
         path: PathBuf,
@@ -64,6 +74,7 @@ pub enum MeshLoadError {
     },
     /// An OBJ line is malformed: bad or non-finite number, too few coordinates, a face with
     /// fewer than three corners, index 0.
+    #[error("{path}:{line}: {message}")]
     ObjSyntax {
         /// File.
         path: PathBuf,
@@ -73,6 +84,7 @@ pub enum MeshLoadError {
         message: String,
     },
     /// An OBJ face refers to a vertex that does not exist.
+    #[error("{path}:{line}: face vertex index {index} is out of range ({vertex_count} vertices)")]
     ObjIndexOutOfRange {
         /// File.
         path: PathBuf,
@@ -84,11 +96,13 @@ pub enum MeshLoadError {
         vertex_count: usize,
     },
     /// More vertices or triangles than 32-bit indices can address.
+    #[error("{path}: too many vertices or triangles for 32-bit indices")]
     TooLarge {
         /// File.
         path: PathBuf,
     },
     /// No triangle is left (the file has none, or all are degenerate).
+    #[error("{path}: {}", empty_message(*.degenerate_removed, *.weld_tolerance))]
     Empty {
         /// File.
         path: PathBuf,
@@ -100,6 +114,7 @@ pub enum MeshLoadError {
     /// One vertex lies so far from the others that it would set the units and the weld
     /// tolerance on its own (a stray vertex: `1000 ×` farther from the vertices' median
     /// point than the median vertex is).
+    #[error("{path}: {location} at {} lies {ratio:.3e} times farther from the surface's median point than the median vertex; a stray vertex would set the units and weld tolerance on its own: remove it", p(*.position))]
     OutlierVertex {
         /// File.
         path: PathBuf,
@@ -112,6 +127,7 @@ pub enum MeshLoadError {
     },
     /// The surface has holes: edges used by only one triangle. Allowed with
     /// [`crate::LoadOptions::allow_open`].
+    #[error("{path}: surface is not closed: {holes} hole(s), {boundary_edges} boundary edge(s) used by only one triangle; first from {} to {} {}", p(.first_edge[0]), p(.first_edge[1]), .units.symbol())]
     OpenSurface {
         /// File.
         path: PathBuf,
@@ -126,6 +142,7 @@ pub enum MeshLoadError {
     },
     /// Some edges are shared by more than two triangles. Allowed with
     /// [`crate::LoadOptions::allow_non_manifold`].
+    #[error("{path}: surface is not manifold: {non_manifold_edges} edge(s) shared by more than two triangles; first ({triangles_on_first_edge} triangles) from {} to {} {}", p(.first_edge[0]), p(.first_edge[1]), .units.symbol())]
     NonManifold {
         /// File.
         path: PathBuf,
@@ -139,6 +156,7 @@ pub enum MeshLoadError {
         units: Units,
     },
     /// The triangles cannot be given one consistent winding (a Möbius-like surface).
+    #[error("{path}: surface is not orientable: no consistent winding exists; contradiction at the edge from {} to {} {}", p(.first_edge[0]), p(.first_edge[1]), .units.symbol())]
     NonOrientable {
         /// File.
         path: PathBuf,
@@ -153,94 +171,15 @@ fn p(v: [f64; 3]) -> String {
     format!("({}, {}, {})", v[0], v[1], v[2])
 }
 
-impl fmt::Display for MeshLoadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Read(e) => e.fmt(f),
-            Self::UnsupportedFormat { path } => {
-                write!(f, "{}: unsupported mesh format (expected a .stl or .obj file)", path.display())
-            }
-            Self::StlTruncated { path, declared_triangles, complete_triangles, expected_bytes, actual_bytes } => {
-                write!(
-                    f,
-                    "{}: truncated binary STL: header declares {declared_triangles} triangles \
-                     ({expected_bytes} bytes) but the file has {actual_bytes} bytes \
-                     ({complete_triangles} complete triangles; triangle {complete_triangles} is cut)",
-                    path.display()
-                )
-            }
-            Self::StlNonFinite { path, triangle } => {
-                write!(f, "{}: binary STL triangle {triangle} has a NaN or infinite coordinate", path.display())
-            }
-            Self::StlCoordinateTooLarge { path, triangle, value } => write!(
-                f,
-                "{}: binary STL triangle {triangle} has coordinate {value:e}, beyond ±{:e}, the largest a mesh file may hold",
-                path.display(),
-                crate::raw::MAX_ABS_COORDINATE
-            ),
-            Self::StlSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
-            Self::ObjSyntax { path, line, message } => write!(f, "{}:{line}: {message}", path.display()),
-            Self::ObjIndexOutOfRange { path, line, index, vertex_count } => write!(
-                f,
-                "{}:{line}: face vertex index {index} is out of range ({vertex_count} vertices)",
-                path.display()
-            ),
-            Self::TooLarge { path } => {
-                write!(f, "{}: too many vertices or triangles for 32-bit indices", path.display())
-            }
-            Self::Empty { path, degenerate_removed: 0, .. } => {
-                write!(f, "{}: the file has no triangles", path.display())
-            }
-            Self::Empty { path, degenerate_removed, weld_tolerance } => write!(
-                f,
-                "{}: no triangles left: welding vertices closer than {weld_tolerance:e} file units made all \
-                 {degenerate_removed} triangles degenerate (two corners on one vertex)",
-                path.display()
-            ),
-            Self::OutlierVertex { path, location, position, ratio } => write!(
-                f,
-                "{}: {location} at {} lies {ratio:.3e} times farther from the surface's median point than the \
-                 median vertex; a stray vertex would set the units and weld tolerance on its own: remove it",
-                path.display(),
-                p(*position)
-            ),
-            Self::OpenSurface { path, boundary_edges, holes, first_edge, units } => write!(
-                f,
-                "{}: surface is not closed: {holes} hole(s), {boundary_edges} boundary edge(s) used by \
-                 only one triangle; first from {} to {} {}",
-                path.display(),
-                p(first_edge[0]),
-                p(first_edge[1]),
-                units.symbol()
-            ),
-            Self::NonManifold { path, non_manifold_edges, triangles_on_first_edge, first_edge, units } => write!(
-                f,
-                "{}: surface is not manifold: {non_manifold_edges} edge(s) shared by more than two \
-                 triangles; first ({triangles_on_first_edge} triangles) from {} to {} {}",
-                path.display(),
-                p(first_edge[0]),
-                p(first_edge[1]),
-                units.symbol()
-            ),
-            Self::NonOrientable { path, first_edge, units } => write!(
-                f,
-                "{}: surface is not orientable: no consistent winding exists; contradiction at the \
-                 edge from {} to {} {}",
-                path.display(),
-                p(first_edge[0]),
-                p(first_edge[1]),
-                units.symbol()
-            ),
-        }
-    }
-}
-
-impl std::error::Error for MeshLoadError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Self::Read(e) => Some(e),
-            _ => None,
-        }
+/// The message of [`MeshLoadError::Empty`] after the path.
+fn empty_message(degenerate_removed: usize, weld_tolerance: f64) -> String {
+    if degenerate_removed == 0 {
+        "the file has no triangles".to_string()
+    } else {
+        format!(
+            "no triangles left: welding vertices closer than {weld_tolerance:e} file units made all \
+             {degenerate_removed} triangles degenerate (two corners on one vertex)"
+        )
     }
 }
 
@@ -251,9 +190,10 @@ impl From<FileReadError> for MeshLoadError {
 }
 
 /// Why a mesh file could not be written.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MeshSaveError {
     /// The file could not be created or written.
+    #[error("{path}: {message}")]
     Io {
         /// File.
         path: PathBuf,
@@ -262,20 +202,11 @@ pub enum MeshSaveError {
     },
 }
 
-impl fmt::Display for MeshSaveError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-        }
-    }
-}
-
-impl std::error::Error for MeshSaveError {}
-
 /// Why a [`crate::TriMesh`] could not be built from vertex and index arrays.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum TriMeshBuildError {
     /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index} but there are {vertex_count} vertices")]
     IndexOutOfRange {
         /// 0-based triangle.
         triangle: usize,
@@ -285,58 +216,35 @@ pub enum TriMeshBuildError {
         vertex_count: usize,
     },
     /// A vertex has a NaN or infinite coordinate.
+    #[error("vertex {vertex} has a NaN or infinite coordinate")]
     NonFiniteVertex {
         /// 0-based vertex.
         vertex: usize,
     },
     /// More vertices than 32-bit indices can address.
+    #[error("{vertex_count} vertices cannot be addressed with 32-bit indices")]
     TooManyVertices {
         /// Number of vertices given.
         vertex_count: usize,
     },
 }
 
-impl fmt::Display for TriMeshBuildError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::IndexOutOfRange { triangle, index, vertex_count } => {
-                write!(f, "triangle {triangle} refers to vertex {index} but there are {vertex_count} vertices")
-            }
-            Self::NonFiniteVertex { vertex } => write!(f, "vertex {vertex} has a NaN or infinite coordinate"),
-            Self::TooManyVertices { vertex_count } => {
-                write!(f, "{vertex_count} vertices cannot be addressed with 32-bit indices")
-            }
-        }
-    }
-}
-
-impl std::error::Error for TriMeshBuildError {}
-
 /// Why a centreline could not be computed (see [`crate::centreline()`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum CentrelineComputeError {
     /// The mesh has no triangles.
+    #[error("the mesh has no triangles")]
     EmptyMesh,
     /// The given axis is zero or not finite.
+    #[error("the centreline axis is zero or not finite")]
     InvalidAxis,
     /// The given height range has a NaN or infinite end.
+    #[error("the centreline height range is not finite")]
     InvalidRange,
     /// Zero stations were asked for.
+    #[error("at least one centreline station is needed")]
     NoStations,
     /// No station plane cuts the surface in a closed loop.
+    #[error("no station plane cuts the surface in a closed loop")]
     NoCrossSection,
 }
-
-impl fmt::Display for CentrelineComputeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::EmptyMesh => f.write_str("the mesh has no triangles"),
-            Self::InvalidAxis => f.write_str("the centreline axis is zero or not finite"),
-            Self::InvalidRange => f.write_str("the centreline height range is not finite"),
-            Self::NoStations => f.write_str("at least one centreline station is needed"),
-            Self::NoCrossSection => f.write_str("no station plane cuts the surface in a closed loop"),
-        }
-    }
-}
-
-impl std::error::Error for CentrelineComputeError {}

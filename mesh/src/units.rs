@@ -71,26 +71,15 @@ impl fmt::Display for Units {
 }
 
 /// Why a unit name could not be parsed.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum UnitsParseError {
     /// The text is none of the known names (`m`, `metre`, `meter`, `cm`, `mm`, `in`, `inch`, ...).
+    #[error("unknown length unit {text:?} (expected m, cm, mm or in)")]
     Unknown {
         /// The text that was given.
         text: String,
     },
 }
-
-impl fmt::Display for UnitsParseError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Unknown { text } => {
-                write!(f, "unknown length unit {text:?} (expected m, cm, mm or in)")
-            }
-        }
-    }
-}
-
-impl std::error::Error for UnitsParseError {}
 
 impl FromStr for Units {
     type Err = UnitsParseError;

@@ -77,32 +77,21 @@ impl fmt::Display for OverrunPolicy {
 }
 
 /// Why creating a [`FixedRateLoop`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum FixedRateLoopCreateError {
     /// The rate was 0 Hz.
+    #[error("loop rate is 0 Hz")]
     ZeroRate,
     /// The rate was above 1 GHz, so the period would round to 0 ns.
+    #[error("loop rate {rate_hz} Hz is above 1 GHz (period < 1 ns)")]
     RateAbove1GHz {
         /// The requested rate, Hz.
         rate_hz: u32,
     },
     /// The period was 0 ns.
+    #[error("loop period is 0 ns")]
     ZeroPeriod,
 }
-
-impl fmt::Display for FixedRateLoopCreateError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::ZeroRate => f.write_str("loop rate is 0 Hz"),
-            Self::RateAbove1GHz { rate_hz } => {
-                write!(f, "loop rate {rate_hz} Hz is above 1 GHz (period < 1 ns)")
-            }
-            Self::ZeroPeriod => f.write_str("loop period is 0 ns"),
-        }
-    }
-}
-
-impl core::error::Error for FixedRateLoopCreateError {}
 
 /// The period for a rate: `1e9 / rate_hz` ns, rounded to the nearest ns.
 ///

@@ -109,44 +109,24 @@ impl MonitorConfig {
 }
 
 /// Why creating a [`DeadlineMonitor`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum DeadlineMonitorCreateError {
     /// `max_trackable_ns` was below 2 ns; HDR histograms need a range of at
     /// least `[1, 2]`.
+    #[error("histogram range of {max_trackable_ns} ns is too small (need at least 2 ns)")]
     RangeTooSmall {
         /// The requested range, ns.
         max_trackable_ns: u64,
     },
 }
 
-impl fmt::Display for DeadlineMonitorCreateError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::RangeTooSmall { max_trackable_ns } => {
-                write!(f, "histogram range of {max_trackable_ns} ns is too small (need at least 2 ns)")
-            }
-        }
-    }
-}
-
-impl core::error::Error for DeadlineMonitorCreateError {}
-
 /// Why writing the JSON report failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum MonitorReportWriteError {
     /// Creating or writing the file failed.
+    #[error("writing the deadline report failed: {0}")]
     Io(std::io::ErrorKind),
 }
-
-impl fmt::Display for MonitorReportWriteError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io(kind) => write!(f, "writing the deadline report failed: {kind}"),
-        }
-    }
-}
-
-impl core::error::Error for MonitorReportWriteError {}
 
 impl From<std::io::Error> for MonitorReportWriteError {
     fn from(e: std::io::Error) -> Self {

@@ -20,10 +20,11 @@
 use std::fmt;
 
 /// Why [`pin_current_thread`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum ThreadPinError {
     /// The CPU is not in this process's allowed set (it does not exist, or a
     /// cpuset / `taskset` excludes it).
+    #[error("cpu {cpu} is not in this process's allowed set ({available} cpus available)")]
     CpuUnavailable {
         /// The requested CPU index.
         cpu: usize,
@@ -31,29 +32,18 @@ pub enum ThreadPinError {
         available: usize,
     },
     /// The kernel refused to set the affinity.
+    #[error("the kernel refused to pin to cpu {cpu}")]
     Refused {
         /// The requested CPU index.
         cpu: usize,
     },
 }
 
-impl fmt::Display for ThreadPinError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::CpuUnavailable { cpu, available } => {
-                write!(f, "cpu {cpu} is not in this process's allowed set ({available} cpus available)")
-            }
-            Self::Refused { cpu } => write!(f, "the kernel refused to pin to cpu {cpu}"),
-        }
-    }
-}
-
-impl core::error::Error for ThreadPinError {}
-
 /// Why [`set_fifo_priority`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum FifoPrioritySetError {
     /// The priority is outside the range `SCHED_FIFO` accepts (1..=99 on Linux).
+    #[error("priority {priority} is outside SCHED_FIFO's range {min}..={max}")]
     OutOfRange {
         /// The requested priority.
         priority: i32,
@@ -65,11 +55,15 @@ pub enum FifoPrioritySetError {
     /// `EPERM`: needs root, `CAP_SYS_NICE`, or `RLIMIT_RTPRIO` (`ulimit -r`)
     /// at least the priority; containers usually also need `--cap-add
     /// SYS_NICE` and, with cgroup v1 RT groups, an RT runtime budget.
+    #[error(
+        "permission denied (EPERM) for priority {priority}: needs root, CAP_SYS_NICE or RLIMIT_RTPRIO >= {priority}"
+    )]
     PermissionDenied {
         /// The requested priority.
         priority: i32,
     },
     /// Any other error number from `sched_setscheduler`.
+    #[error("sched_setscheduler(SCHED_FIFO, {priority}) failed: errno {errno}")]
     Os {
         /// The requested priority.
         priority: i32,
@@ -78,54 +72,23 @@ pub enum FifoPrioritySetError {
     },
 }
 
-impl fmt::Display for FifoPrioritySetError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::OutOfRange { priority, min, max } => {
-                write!(f, "priority {priority} is outside SCHED_FIFO's range {min}..={max}")
-            }
-            Self::PermissionDenied { priority } => write!(
-                f,
-                "permission denied (EPERM) for priority {priority}: needs root, CAP_SYS_NICE \
-                 or RLIMIT_RTPRIO >= {priority}"
-            ),
-            Self::Os { priority, errno } => {
-                write!(f, "sched_setscheduler(SCHED_FIFO, {priority}) failed: errno {errno}")
-            }
-        }
-    }
-}
-
-impl core::error::Error for FifoPrioritySetError {}
-
 /// Why [`lock_memory`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum MemoryLockError {
     /// `EPERM`: needs root, `CAP_IPC_LOCK`, or a large enough `RLIMIT_MEMLOCK`.
+    #[error("permission denied (EPERM): needs root, CAP_IPC_LOCK or a larger RLIMIT_MEMLOCK")]
     PermissionDenied,
     /// `ENOMEM`: `RLIMIT_MEMLOCK` (`ulimit -l`) is smaller than the memory to
     /// lock.
+    #[error("RLIMIT_MEMLOCK (ulimit -l) is too small for the process (ENOMEM)")]
     LimitExceeded,
     /// Any other error number from `mlockall`.
+    #[error("mlockall failed: errno {errno}")]
     Os {
         /// `errno`.
         errno: i32,
     },
 }
-
-impl fmt::Display for MemoryLockError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::PermissionDenied => {
-                f.write_str("permission denied (EPERM): needs root, CAP_IPC_LOCK or a larger RLIMIT_MEMLOCK")
-            }
-            Self::LimitExceeded => f.write_str("RLIMIT_MEMLOCK (ulimit -l) is too small for the process (ENOMEM)"),
-            Self::Os { errno } => write!(f, "mlockall failed: errno {errno}"),
-        }
-    }
-}
-
-impl core::error::Error for MemoryLockError {}
 
 fn errno() -> i32 {
     std::io::Error::last_os_error().raw_os_error().unwrap_or(0)

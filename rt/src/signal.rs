@@ -20,16 +20,16 @@
 //! # Ok::<(), lamina_rt::StopHandlerInstallError>(())
 //! ```
 
-use std::fmt;
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicPtr, Ordering};
 
 static STOP_FLAG: AtomicPtr<AtomicBool> = AtomicPtr::new(std::ptr::null_mut());
 static LAST_SIGNAL: AtomicI32 = AtomicI32::new(0);
 
 /// Why [`install_stop_handler`] failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum StopHandlerInstallError {
     /// `sigaction` failed for this signal.
+    #[error("installing the {} handler failed: errno {errno}", signal_name(*.signal))]
     Sigaction {
         /// The signal number.
         signal: i32,
@@ -37,18 +37,6 @@ pub enum StopHandlerInstallError {
         errno: i32,
     },
 }
-
-impl fmt::Display for StopHandlerInstallError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Sigaction { signal, errno } => {
-                write!(f, "installing the {} handler failed: errno {errno}", signal_name(*signal))
-            }
-        }
-    }
-}
-
-impl core::error::Error for StopHandlerInstallError {}
 
 extern "C" fn on_stop_signal(signal: libc::c_int) {
     // Async-signal-safe: lock-free atomics only, no allocation, no locks.
