@@ -209,7 +209,7 @@ struct Job {
 
 fn scene_job(path: &Path) -> Result<Job, String> {
     let scene = Scene::load(path).map_err(|e| e.to_string())?;
-    let geometry = scene_geometry(&scene)?;
+    let geometry = scene_geometry(&scene).map_err(|e| e.to_string())?;
     let springs = match &scene.model {
         ModelSource::CylinderLimb { springs, .. } => *springs,
         ModelSource::Anatomy(spec) => Some(spec.materials)

@@ -254,7 +254,7 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     let mut radius_m = 0.012;
     println!("indentation: a sphere lowered 1 mm at a time (10 mm/s, each depth held 0.2 s), force along the press");
     for scene in &loaded {
-        let (radius, curves) = indent_scene(scene, sites, depth_mm)?;
+        let (radius, curves) = indent_scene(scene, sites, depth_mm).map_err(|e| e.to_string())?;
         radius_m = radius;
         println!("\n{} (sphere radius {:.1} mm)", scene.name, radius * 1e3);
         print!("{:<44}", "site \\ depth mm");

@@ -84,24 +84,15 @@ pub struct LayerFit {
 }
 
 /// Why a layer could not be fitted.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum LayerFitError {
     /// The slab's tensile test failed with unit springs.
+    #[error("tensile specimen: {0}")]
     Specimen(String),
     /// No parameters gave a usable curve.
+    #[error("no parameters gave a usable tensile curve")]
     NoCurve,
 }
-
-impl std::fmt::Display for LayerFitError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Specimen(e) => write!(f, "tensile specimen: {e}"),
-            Self::NoCurve => write!(f, "no parameters gave a usable tensile curve"),
-        }
-    }
-}
-
-impl std::error::Error for LayerFitError {}
 
 /// The spring law of parameter vector `p` for `targets`' kind of layer.
 pub fn material_of(targets: &TissueTargets, p: &[f64]) -> SpringMaterial {

@@ -26,6 +26,8 @@ pub use layer_fit::{
     Achieved, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of, psi,
 };
 pub use regression::{BilinearFit, LineFit, bilinear_regression, line_fit};
-pub use scene_fit::{anatomy_geometry, cylinder_geometry, fit_layers, scene_geometry, scene_springs};
+pub use scene_fit::{
+    SceneGeometryError, anatomy_geometry, cylinder_geometry, fit_layers, scene_geometry, scene_springs,
+};
 pub use targets::{TargetCurve, TargetLaw, TargetsLoadError, TissueTargets};
 pub use tensile::{Specimen, TensileCurve, TensileTestError, tensile_test};

@@ -7,7 +7,27 @@ use super::targets::TissueTargets;
 use crate::generator::vec3::{add, cross, dot, norm, scale, sub};
 use crate::generator::{AnatomySpec, CylinderLimb, GridSize};
 use crate::model::Model;
-use crate::scene::{ModelSource, Scene, SceneSprings};
+use crate::scene::{ModelSource, Scene, SceneLoadError, SceneSprings};
+
+/// Why a scene's layer geometry could not be found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SceneGeometryError {
+    /// The scene's model could not be built.
+    #[error(transparent)]
+    Scene(#[from] SceneLoadError),
+    /// The generated limb has no usable layer geometry.
+    #[error("{scene}: the generated limb has no usable layer geometry")]
+    NoGeometry {
+        /// The scene's file, or `the built-in default scene`.
+        scene: String,
+    },
+    /// The scene's model is not a generated limb.
+    #[error("{scene}: only a generated limb (cylinder_limb or anatomy) has springs to fit")]
+    NotALimb {
+        /// The scene's file, or `the built-in default scene`.
+        scene: String,
+    },
+}
 
 /// The skin, fat and muscle layers' geometry in a cylindrical limb: spacing = the geometric
 /// mean of a cell's sides on the skin (circumference / W by length / H), thickness = the
@@ -91,7 +111,7 @@ pub fn anatomy_geometry(model: &Model, spec: &AnatomySpec) -> Option<[LayerGeome
 
 /// The layers' geometry of the limb `scene` generates; an error naming the scene when its
 /// model is not a generated limb (a layered block, a lattice or a model file).
-pub fn scene_geometry(scene: &Scene) -> Result<[LayerGeometry; 3], String> {
+pub fn scene_geometry(scene: &Scene) -> Result<[LayerGeometry; 3], SceneGeometryError> {
     let name = || scene.path.as_ref().map_or_else(|| "the built-in default scene".into(), |p| p.display().to_string());
     match &scene.model {
         ModelSource::CylinderLimb { columns, rows, length, .. } => Ok(cylinder_geometry(&CylinderLimb {
@@ -100,11 +120,10 @@ pub fn scene_geometry(scene: &Scene) -> Result<[LayerGeometry; 3], String> {
             ..CylinderLimb::default()
         })),
         ModelSource::Anatomy(spec) => {
-            let model = scene.build_model().map_err(|e| e.to_string())?;
-            anatomy_geometry(&model, spec)
-                .ok_or_else(|| format!("{}: the generated limb has no usable layer geometry", name()))
+            let model = scene.build_model()?;
+            anatomy_geometry(&model, spec).ok_or_else(|| SceneGeometryError::NoGeometry { scene: name() })
         }
-        _ => Err(format!("{}: only a generated limb (cylinder_limb or anatomy) has springs to fit", name())),
+        _ => Err(SceneGeometryError::NotALimb { scene: name() }),
     }
 }
 

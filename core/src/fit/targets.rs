@@ -99,9 +99,10 @@ impl TissueTargets {
 }
 
 /// Why a targets file could not be used.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TargetsLoadError {
     /// Unreadable file.
+    #[error("{path}: {message}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -109,6 +110,7 @@ pub enum TargetsLoadError {
         message: String,
     },
     /// Malformed TOML or a wrong field.
+    #[error("{path}:{line}:{column}: {message}")]
     Syntax {
         /// The file.
         path: PathBuf,
@@ -120,6 +122,7 @@ pub enum TargetsLoadError {
         message: String,
     },
     /// A value out of range or missing.
+    #[error("{path}: {field}: {message}")]
     Value {
         /// The file.
         path: PathBuf,
@@ -129,20 +132,6 @@ pub enum TargetsLoadError {
         message: String,
     },
 }
-
-impl std::fmt::Display for TargetsLoadError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            Self::Syntax { path, line, column, message } => {
-                write!(f, "{}:{line}:{column}: {message}", path.display())
-            }
-            Self::Value { path, field, message } => write!(f, "{}: {field}: {message}", path.display()),
-        }
-    }
-}
-
-impl std::error::Error for TargetsLoadError {}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

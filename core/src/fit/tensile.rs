@@ -86,9 +86,10 @@ pub struct TensileCurve {
 }
 
 /// Why a tensile test could not finish.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum TensileTestError {
     /// Newton's method did not reach the residual tolerance.
+    #[error("load {load}: no static equilibrium (relative residual {residual:.2e})")]
     NotConverged {
         /// Index of the load (1-based).
         load: usize,
@@ -96,24 +97,12 @@ pub enum TensileTestError {
         residual: f64,
     },
     /// The tangent stiffness matrix was singular.
+    #[error("load {load}: singular tangent stiffness")]
     Singular {
         /// Index of the load (1-based).
         load: usize,
     },
 }
-
-impl std::fmt::Display for TensileTestError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::NotConverged { load, residual } => {
-                write!(f, "load {load}: no static equilibrium (relative residual {residual:.2e})")
-            }
-            Self::Singular { load } => write!(f, "load {load}: singular tangent stiffness"),
-        }
-    }
-}
-
-impl std::error::Error for TensileTestError {}
 
 /// Largest net force on any free node, relative to the load per pulled node, at which a
 /// load step counts as in static equilibrium (or the Newton step falls below 1e-10 of the

@@ -148,19 +148,24 @@ pub struct AnatomyReport {
 }
 
 /// Why a model could not be generated from surfaces.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AnatomyGenerateError {
     /// A surface file could not be loaded (missing, malformed, holes, ...).
+    #[error("{0}")]
     Load(String),
     /// The bone's cross-sections gave no centreline over the region.
+    #[error("centreline: {0}")]
     Centreline(String),
     /// The settings are out of range.
+    #[error("{0}")]
     Settings(String),
     /// The layered generation failed.
+    #[error("{0}")]
     Generate(GeneratorError),
     /// The repairs of one boundary exceed [`MAX_REPAIR_FRACTION`] of its samples: the
     /// surfaces do not describe nested layers (a bone given as the skin, a minimum layer
     /// thicker than the limb), so the model would be the repair's, not the data's.
+    #[error("{boundary}: {repaired} of {samples} samples had to be repaired ({:.0} %, more than the {:.0} % allowed): the surfaces do not nest as skin, fat/muscle boundary and bone; check which file is which and min_layer", 100.0 * *.repaired as f64 / (*.samples).max(1) as f64, 100.0 * MAX_REPAIR_FRACTION)]
     TooManyRepairs {
         /// The boundary, e.g. `fat/muscle`.
         boundary: &'static str,
@@ -174,27 +179,6 @@ pub enum AnatomyGenerateError {
 /// Largest fraction of a boundary's samples the nesting repair may place: 25 %. The
 /// BodyParts3D thigh needs 5.9 % (skin/fat) and 2.8 % (fat/muscle).
 pub const MAX_REPAIR_FRACTION: f64 = 0.25;
-
-impl std::fmt::Display for AnatomyGenerateError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Load(e) => write!(f, "{e}"),
-            Self::Centreline(e) => write!(f, "centreline: {e}"),
-            Self::Settings(e) => write!(f, "{e}"),
-            Self::Generate(e) => write!(f, "{e}"),
-            Self::TooManyRepairs { boundary, repaired, samples } => write!(
-                f,
-                "{boundary}: {repaired} of {samples} samples had to be repaired ({:.0} %, more than the {:.0} % allowed): \
-                 the surfaces do not nest as skin, fat/muscle boundary and bone; check which file is which and \
-                 min_layer",
-                100.0 * *repaired as f64 / (*samples).max(1) as f64,
-                100.0 * MAX_REPAIR_FRACTION
-            ),
-        }
-    }
-}
-
-impl std::error::Error for AnatomyGenerateError {}
 
 /// Generates the layered model of `spec`'s region, with a report of defects and times.
 pub fn generate_anatomy(

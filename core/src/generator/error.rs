@@ -2,13 +2,13 @@
 
 use super::surface::Boundary;
 use crate::model::{ModelSizeError, ModelValidateError, Tissue};
-use std::fmt;
 
 /// Why [`generate_layered`](super::generate_layered) or [`generate`](super::generate)
 /// failed.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum GeneratorError {
     /// The grid has fewer than 3 columns or 1 row, or too many nodes for `u32` indices.
+    #[error("grid {columns}x{rows}: needs at least 3 columns and 1 row and fewer than 2^32 nodes")]
     BadGrid {
         /// Requested W.
         columns: u32,
@@ -19,10 +19,13 @@ pub enum GeneratorError {
     /// ([`CylinderLimb::MIN_SIZE_M`](super::CylinderLimb::MIN_SIZE_M) to
     /// [`MAX_SIZE_M`](super::CylinderLimb::MAX_SIZE_M)), or the radii do not decrease
     /// strictly inward.
+    #[error("cylinder limb: length and radii must be between 1e-6 and 1e3 m, radii decreasing inward")]
     BadCylinder,
     /// The ray origin distance is not positive and finite.
+    #[error("ray reach must be positive and finite")]
     BadReach,
     /// A tissue's material has a non-finite or negative parameter or a non-positive density.
+    #[error("material of {}: a parameter is not finite and valid", .tissue.name())]
     BadMaterial {
         /// The tissue.
         tissue: Tissue,
@@ -30,6 +33,7 @@ pub enum GeneratorError {
     /// A ray cast toward the centreline did not meet a boundary: the boundary is not closed
     /// there, lies outside the reach, or the previous sample is already inside it (the
     /// layer above is thinner than the sagitta of the outer grid's triangles).
+    #[error("ray toward the centreline missed {} {}", .boundary.name(), ray_missed_at(*.column, *.row, *.triangle))]
     RayMissed {
         /// The boundary that was missed.
         boundary: Boundary,
@@ -42,6 +46,7 @@ pub enum GeneratorError {
         triangle: Option<u8>,
     },
     /// Two connected nodes landed within 1 nm of each other (a degenerate surface).
+    #[error("nodes {a} and {b} coincide (spring shorter than 1 nm)")]
     DegenerateSpring {
         /// First node.
         a: u32,
@@ -49,51 +54,20 @@ pub enum GeneratorError {
         b: u32,
     },
     /// The finished model failed [`Model::validate`](crate::model::Model::validate).
+    #[error("generated model is invalid: {0}")]
     Model(ModelValidateError),
     /// The model would need more memory than is available (or more nodes than `u32`
     /// indices address).
+    #[error(transparent)]
     Size(ModelSizeError),
 }
 
-impl fmt::Display for GeneratorError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::BadGrid { columns, rows } => {
-                write!(f, "grid {columns}x{rows}: needs at least 3 columns and 1 row and fewer than 2^32 nodes")
-            }
-            Self::BadCylinder => {
-                write!(f, "cylinder limb: length and radii must be between 1e-6 and 1e3 m, radii decreasing inward")
-            }
-            Self::BadReach => write!(f, "ray reach must be positive and finite"),
-            Self::BadMaterial { tissue } => {
-                write!(f, "material of {}: a parameter is not finite and valid", tissue.name())
-            }
-            Self::RayMissed { boundary, column, row, triangle: None } => {
-                write!(
-                    f,
-                    "ray toward the centreline missed {} at grid point (column {column}, ring {row})",
-                    boundary.name()
-                )
-            }
-            Self::RayMissed { boundary, column, row, triangle: Some(half) } => write!(
-                f,
-                "ray toward the centreline missed {} below triangle {half} of grid cell (column {column}, row {row})",
-                boundary.name()
-            ),
-            Self::DegenerateSpring { a, b } => write!(f, "nodes {a} and {b} coincide (spring shorter than 1 nm)"),
-            Self::Model(e) => write!(f, "generated model is invalid: {e}"),
-            Self::Size(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl std::error::Error for GeneratorError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Self::Model(e) => Some(e),
-            Self::Size(e) => Some(e),
-            _ => None,
-        }
+/// Where a [`GeneratorError::RayMissed`] ray started: a grid point of the outer skin, or a
+/// triangle of a grid cell.
+fn ray_missed_at(column: u32, row: u32, triangle: Option<u8>) -> String {
+    match triangle {
+        None => format!("at grid point (column {column}, ring {row})"),
+        Some(half) => format!("below triangle {half} of grid cell (column {column}, row {row})"),
     }
 }
 

@@ -29,9 +29,10 @@ impl fmt::Display for SourceLocation {
 /// `spring 3`, `layer 0`, `surface 1`.
 ///
 /// The messages (`Display`) are listed in `docs/model-format.md`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ModelReadError {
     /// The file could not be opened or read.
+    #[error("{file}: cannot read: {message}")]
     Io {
         /// File name.
         file: String,
@@ -40,8 +41,10 @@ pub enum ModelReadError {
     },
     /// The file was not read: it is not a regular file (a FIFO, `/dev/zero`), is larger
     /// than [`MODEL_FILE`](super::MODEL_FILE)'s cap, or needs more memory than is available.
+    #[error("{0}")]
     Refused(lamina_input::FileReadError),
     /// The text is not well-formed XML (or not UTF-8).
+    #[error("{at}: not well-formed XML: {message}")]
     Syntax {
         /// Where.
         at: SourceLocation,
@@ -49,6 +52,7 @@ pub enum ModelReadError {
         message: String,
     },
     /// The document ends before every element is closed.
+    #[error("{at}: the document ends inside '{open}' (truncated file?)")]
     Truncated {
         /// Where the input ends.
         at: SourceLocation,
@@ -56,6 +60,7 @@ pub enum ModelReadError {
         open: String,
     },
     /// An element this format does not know, or that may not appear inside its parent.
+    #[error("{at}: unknown element <{element}> inside <{parent}>")]
     UnknownElement {
         /// Where the element starts.
         at: SourceLocation,
@@ -66,6 +71,7 @@ pub enum ModelReadError {
     },
     /// A known element in the wrong place: a section out of order or repeated, or a
     /// second root element.
+    #[error("{at}: element <{element}>: {reason}")]
     MisplacedElement {
         /// Where the element starts.
         at: SourceLocation,
@@ -75,6 +81,7 @@ pub enum ModelReadError {
         reason: String,
     },
     /// A required element is absent.
+    #[error("{at}: {}", missing_element(.element, .parent))]
     MissingElement {
         /// Where its parent ends.
         at: SourceLocation,
@@ -84,6 +91,7 @@ pub enum ModelReadError {
         parent: String,
     },
     /// Non-blank text where only elements may appear.
+    #[error("{at}: unexpected text inside <{parent}>")]
     UnexpectedText {
         /// Where the text starts.
         at: SourceLocation,
@@ -91,6 +99,7 @@ pub enum ModelReadError {
         parent: String,
     },
     /// An attribute the element does not have.
+    #[error("{at}: {item}: unknown attribute '{attribute}'")]
     UnknownAttribute {
         /// Where the attribute starts.
         at: SourceLocation,
@@ -100,6 +109,7 @@ pub enum ModelReadError {
         attribute: String,
     },
     /// A required attribute is absent.
+    #[error("{at}: {item}: missing attribute '{attribute}'")]
     MissingAttribute {
         /// Where the element starts.
         at: SourceLocation,
@@ -109,6 +119,7 @@ pub enum ModelReadError {
         attribute: &'static str,
     },
     /// An attribute or text value that should be a number is not one.
+    #[error("{at}: {item}: {}", bad_number(.attribute, .value))]
     BadNumber {
         /// Where the value's attribute (or text token) starts.
         at: SourceLocation,
@@ -120,6 +131,7 @@ pub enum ModelReadError {
         value: String,
     },
     /// A number is NaN or infinite.
+    #[error("{at}: {item}: attribute '{attribute}' = '{value}' is not finite")]
     NonFinite {
         /// Where the attribute starts.
         at: SourceLocation,
@@ -132,6 +144,7 @@ pub enum ModelReadError {
     },
     /// A keyword attribute (law, kind, tissue, units, version, role) has a value the
     /// format does not know.
+    #[error("{at}: {item}: attribute '{attribute}' = '{value}' is not one of: {allowed}")]
     UnknownValue {
         /// Where the attribute starts.
         at: SourceLocation,
@@ -145,6 +158,7 @@ pub enum ModelReadError {
         allowed: &'static str,
     },
     /// An index (own index, node, layer) is not below the number of things it indexes.
+    #[error("{at}: {item}: {}", index_out_of_range(.attribute, *.index, *.count))]
     IndexOutOfRange {
         /// Where the attribute starts.
         at: SourceLocation,
@@ -158,6 +172,7 @@ pub enum ModelReadError {
         count: u64,
     },
     /// An element's `index` names an element that came before it.
+    #[error("{at}: {item} index {index} appears twice")]
     DuplicateIndex {
         /// Where the `index` attribute starts.
         at: SourceLocation,
@@ -167,6 +182,7 @@ pub enum ModelReadError {
         index: u64,
     },
     /// Elements are not listed in index order (an index is skipped).
+    #[error("{at}: {item} index {found} out of order: index {expected} must come next")]
     IndexOutOfOrder {
         /// Where the `index` attribute starts.
         at: SourceLocation,
@@ -178,6 +194,7 @@ pub enum ModelReadError {
         found: u64,
     },
     /// A section's `count` differs from the number of elements in it.
+    #[error("{at}: <{section}> declares count=\"{declared}\" but holds {found} elements")]
     CountMismatch {
         /// Where the section ends.
         at: SourceLocation,
@@ -189,6 +206,7 @@ pub enum ModelReadError {
         found: u64,
     },
     /// A spring given only as a PPU pair does not describe a bilinear law.
+    #[error("{at}: {item}: PPU pair is not a bilinear law: {reason}")]
     BadPpu {
         /// Where the `ppu` element starts.
         at: SourceLocation,
@@ -198,6 +216,7 @@ pub enum ModelReadError {
         reason: String,
     },
     /// A cell's `nodes` attribute lists a number of nodes its kind does not have.
+    #[error("{at}: {item}: a {kind} cell has {expected} nodes, attribute 'nodes' lists {found}")]
     BadCellNodes {
         /// Where the `nodes` attribute is.
         at: SourceLocation,
@@ -213,6 +232,7 @@ pub enum ModelReadError {
     /// Everything parsed, but [`crate::model::Model::validate`] rejects the model (zero
     /// mass, a spring from a node to itself, negative stiffness, turning length below the
     /// rest length, ...). `at` is the offending element when one is named.
+    #[error("{at}: invalid model: {reason}")]
     Invalid {
         /// Where the offending element starts (the root element when none is named).
         at: SourceLocation,
@@ -278,72 +298,11 @@ impl ModelReadError {
     }
 }
 
-impl fmt::Display for ModelReadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { file, message } => write!(f, "{file}: cannot read: {message}"),
-            Self::Refused(e) => write!(f, "{e}"),
-            Self::Syntax { at, message } => write!(f, "{at}: not well-formed XML: {message}"),
-            Self::Truncated { at, open } => write!(f, "{at}: the document ends inside '{open}' (truncated file?)"),
-            Self::UnknownElement { at, element, parent } => {
-                write!(f, "{at}: unknown element <{element}> inside <{parent}>")
-            }
-            Self::MisplacedElement { at, element, reason } => write!(f, "{at}: element <{element}>: {reason}"),
-            Self::MissingElement { at, element, parent } if parent == "document" => {
-                write!(f, "{at}: the document has no <{element}> element")
-            }
-            Self::MissingElement { at, element, parent } => {
-                write!(f, "{at}: <{parent}> lacks the required element <{element}>")
-            }
-            Self::UnexpectedText { at, parent } => write!(f, "{at}: unexpected text inside <{parent}>"),
-            Self::UnknownAttribute { at, item, attribute } => {
-                write!(f, "{at}: {item}: unknown attribute '{attribute}'")
-            }
-            Self::MissingAttribute { at, item, attribute } => {
-                write!(f, "{at}: {item}: missing attribute '{attribute}'")
-            }
-            Self::BadNumber { at, item, attribute: "", value } => {
-                write!(f, "{at}: {item}: '{value}' is not a number")
-            }
-            Self::BadNumber { at, item, attribute, value } => {
-                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not a number")
-            }
-            Self::NonFinite { at, item, attribute, value } => {
-                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not finite")
-            }
-            Self::UnknownValue { at, item, attribute, value, allowed } => {
-                write!(f, "{at}: {item}: attribute '{attribute}' = '{value}' is not one of: {allowed}")
-            }
-            Self::IndexOutOfRange { at, item, attribute: "", index, count } => {
-                write!(f, "{at}: {item}: node index {index} is out of range (must be below {count})")
-            }
-            Self::IndexOutOfRange { at, item, attribute, index, count } => {
-                write!(f, "{at}: {item}: attribute '{attribute}' = {index} is out of range (must be below {count})")
-            }
-            Self::DuplicateIndex { at, item, index } => {
-                write!(f, "{at}: {item} index {index} appears twice")
-            }
-            Self::IndexOutOfOrder { at, item, expected, found } => {
-                write!(f, "{at}: {item} index {found} out of order: index {expected} must come next")
-            }
-            Self::CountMismatch { at, section, declared, found } => {
-                write!(f, "{at}: <{section}> declares count=\"{declared}\" but holds {found} elements")
-            }
-            Self::BadPpu { at, item, reason } => write!(f, "{at}: {item}: PPU pair is not a bilinear law: {reason}"),
-            Self::BadCellNodes { at, item, kind, expected, found } => {
-                write!(f, "{at}: {item}: a {kind} cell has {expected} nodes, attribute 'nodes' lists {found}")
-            }
-            Self::Invalid { at, reason } => write!(f, "{at}: invalid model: {reason}"),
-        }
-    }
-}
-
-impl std::error::Error for ModelReadError {}
-
 /// Why a model could not be written.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ModelWriteError {
     /// The file could not be created or written.
+    #[error("{file}: cannot write: {message}")]
     Io {
         /// File name.
         file: String,
@@ -351,39 +310,30 @@ pub enum ModelWriteError {
         message: String,
     },
     /// The model fails [`crate::model::Model::validate`]; the file would not read back.
+    #[error("refusing to write an invalid model: {reason}")]
     Invalid {
         /// The validation failure.
         reason: ModelValidateError,
     },
     /// A node's texture coordinate is NaN or infinite.
+    #[error("node {node}: texture coordinate is not finite")]
     NonFiniteTexcoord {
         /// Node index.
         node: u32,
     },
     /// A name or provenance string holds a NUL character, which XML cannot carry.
+    #[error("{what} contains a NUL character, which XML cannot hold")]
     UnrepresentableText {
         /// Which string, e.g. `provenance key 2`.
         what: String,
     },
 }
 
-impl fmt::Display for ModelWriteError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { file, message } => write!(f, "{file}: cannot write: {message}"),
-            Self::Invalid { reason } => write!(f, "refusing to write an invalid model: {reason}"),
-            Self::NonFiniteTexcoord { node } => write!(f, "node {node}: texture coordinate is not finite"),
-            Self::UnrepresentableText { what } => write!(f, "{what} contains a NUL character, which XML cannot hold"),
-        }
-    }
-}
-
-impl std::error::Error for ModelWriteError {}
-
 /// Why a VTK file (or a series of them) could not be written.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum VtuWriteError {
     /// A file could not be created or written.
+    #[error("{file}: cannot write: {message}")]
     Io {
         /// File name.
         file: String,
@@ -391,6 +341,7 @@ pub enum VtuWriteError {
         message: String,
     },
     /// The positions given are not one per model node.
+    #[error("{found} positions given for a model of {expected} nodes")]
     PositionCount {
         /// Nodes in the model.
         expected: usize,
@@ -398,22 +349,37 @@ pub enum VtuWriteError {
         found: usize,
     },
     /// A frame's time is NaN, infinite, or earlier than the previous frame's.
+    #[error("frame {frame}: time is not finite or goes backwards")]
     BadTime {
         /// Frame number, 0-based.
         frame: usize,
     },
 }
 
-impl fmt::Display for VtuWriteError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { file, message } => write!(f, "{file}: cannot write: {message}"),
-            Self::PositionCount { expected, found } => {
-                write!(f, "{found} positions given for a model of {expected} nodes")
-            }
-            Self::BadTime { frame } => write!(f, "frame {frame}: time is not finite or goes backwards"),
-        }
+/// [`ModelReadError::MissingElement`]'s message after the location.
+fn missing_element(element: &str, parent: &str) -> String {
+    if parent == "document" {
+        format!("the document has no <{element}> element")
+    } else {
+        format!("<{parent}> lacks the required element <{element}>")
     }
 }
 
-impl std::error::Error for VtuWriteError {}
+/// [`ModelReadError::BadNumber`]'s message after the item (`attribute` empty: element text).
+fn bad_number(attribute: &str, value: &str) -> String {
+    if attribute.is_empty() {
+        format!("'{value}' is not a number")
+    } else {
+        format!("attribute '{attribute}' = '{value}' is not a number")
+    }
+}
+
+/// [`ModelReadError::IndexOutOfRange`]'s message after the item (`attribute` empty: element
+/// text).
+fn index_out_of_range(attribute: &str, index: u64, count: u64) -> String {
+    if attribute.is_empty() {
+        format!("node index {index} is out of range (must be below {count})")
+    } else {
+        format!("attribute '{attribute}' = {index} is out of range (must be below {count})")
+    }
+}

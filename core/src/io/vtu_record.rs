@@ -272,21 +272,14 @@ const RECORDED_FILE: lamina_input::FileLimit =
     lamina_input::FileLimit::new("recorded frame", 1 << 30).memory_per_byte(2);
 
 /// Why a recording could not be read back.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{file}: {message}")]
 pub struct RecordReadError {
     /// The file.
     pub file: String,
     /// What is wrong with it.
     pub message: String,
 }
-
-impl std::fmt::Display for RecordReadError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: {}", self.file, self.message)
-    }
-}
-
-impl std::error::Error for RecordReadError {}
 
 /// One frame listed in a recording's collection.
 #[derive(Clone, Debug, PartialEq)]

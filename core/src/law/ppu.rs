@@ -20,7 +20,6 @@
 //! test checks it at random lengths). Outside that range the pair saturates, as the PPU did.
 
 use super::Bilinear;
-use std::fmt;
 
 /// One PPU linear spring (PhysX 2 `setLinearSpring`). Forces in N, lengths in m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,31 +71,22 @@ pub struct PpuBilinearPair {
 
 /// Why a PPU pair cannot be read back as a bilinear spring, or a bilinear spring cannot be
 /// written as one.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum PpuDecomposeError {
     /// A parameter is NaN or infinite.
+    #[error("a PPU spring parameter is NaN or infinite")]
     NonFinite,
     /// The lengths are not ordered `CompLen ≤ RestLen ≤ TurnLen < StretLen`.
+    #[error("PPU lengths must satisfy CompLen <= RestLen <= TurnLen < StretLen")]
     LengthsOutOfOrder,
     /// The second spring carries compression, which would stiffen the first phase.
+    #[error("the second PPU spring must have CompForce = 0")]
     SecondSpringCompresses,
     /// The first spring does not saturate at the turning point, or the second does not
     /// start there.
+    #[error("the first PPU spring must saturate where the second one starts (TurnLen)")]
     NotJoinedAtTurn,
 }
-
-impl fmt::Display for PpuDecomposeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::NonFinite => "a PPU spring parameter is NaN or infinite",
-            Self::LengthsOutOfOrder => "PPU lengths must satisfy CompLen <= RestLen <= TurnLen < StretLen",
-            Self::SecondSpringCompresses => "the second PPU spring must have CompForce = 0",
-            Self::NotJoinedAtTurn => "the first PPU spring must saturate where the second one starts (TurnLen)",
-        })
-    }
-}
-
-impl std::error::Error for PpuDecomposeError {}
 
 impl PpuBilinearPair {
     /// Writes `law` (rest length `rest_len`) as a PPU pair valid for lengths in

@@ -1,7 +1,6 @@
 //! The whole model and its consistency check.
 
 use super::{Cell, Layer, NodeSet, SpringSet, Surface};
-use std::fmt;
 
 /// Where a model came from: generator settings, fit results, as ordered key/value pairs.
 pub type Provenance = Vec<(String, String)>;
@@ -27,62 +26,49 @@ pub struct Model {
 }
 
 /// What makes a model unusable.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ModelValidateError {
     /// A node has a non-finite position or a mass that is not finite and positive.
+    #[error("node {node}: position not finite or mass not positive")]
     BadNode {
         /// Node index.
         node: u32,
     },
     /// A spring names a node index that does not exist, or both ends are the same node.
+    #[error("spring {spring}: end node missing or both ends equal")]
     BadSpringEnds {
         /// Spring index.
         spring: u32,
     },
     /// A spring's rest length, law or damping is not finite and non-negative.
+    #[error("spring {spring}: rest length, law or damping not finite and non-negative")]
     BadSpringParameters {
         /// Spring index.
         spring: u32,
     },
     /// A node or spring names a layer that does not exist.
+    #[error("layer {layer} is named but not defined")]
     BadLayer {
         /// Layer index named.
         layer: u16,
     },
     /// A surface names a node index that does not exist.
+    #[error("surface {surface}: names a node that does not exist")]
     BadSurface {
         /// Surface name.
         surface: String,
     },
     /// A cell names a node index that does not exist, names one node twice, or names a
     /// layer that does not exist.
+    #[error("cell {cell}: names a node or layer that does not exist, or one node twice")]
     BadCell {
         /// Cell index.
         cell: u32,
     },
     /// The per-node or per-spring arrays differ in length.
+    #[error("per-node or per-spring arrays differ in length")]
     RaggedArrays,
 }
-
-impl fmt::Display for ModelValidateError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::BadNode { node } => write!(f, "node {node}: position not finite or mass not positive"),
-            Self::BadSpringEnds { spring } => write!(f, "spring {spring}: end node missing or both ends equal"),
-            Self::BadSpringParameters { spring } => {
-                write!(f, "spring {spring}: rest length, law or damping not finite and non-negative")
-            }
-            Self::BadLayer { layer } => write!(f, "layer {layer} is named but not defined"),
-            Self::BadSurface { surface } => write!(f, "surface {surface}: names a node that does not exist"),
-            Self::BadCell { cell } => {
-                write!(f, "cell {cell}: names a node or layer that does not exist, or one node twice")
-            }
-            Self::RaggedArrays => write!(f, "per-node or per-spring arrays differ in length"),
-        }
-    }
-}
-
-impl std::error::Error for ModelValidateError {}
 
 impl Model {
     /// Checks that every index and parameter is usable by the solver.

@@ -20,7 +20,6 @@
 use crate::law::SpringLaw;
 use crate::model::NodeKind;
 use lamina_input::{MemoryCheckError, check_memory};
-use std::fmt;
 use std::mem::size_of;
 
 /// Bytes per byte of model while generating and writing it. Measured: peak resident memory
@@ -54,9 +53,10 @@ pub struct ModelSize {
 }
 
 /// Why a model of some size is refused.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum ModelSizeError {
     /// More nodes than `u32` indices can address (`None`: the count overflowed).
+    #[error("{what}: {} nodes, more than 32-bit indices address (4,294,967,295)", count(.nodes))]
     TooManyNodes {
         /// What was asked for.
         what: String,
@@ -64,6 +64,7 @@ pub enum ModelSizeError {
         nodes: Option<u64>,
     },
     /// More springs than `u32` indices can address (`None`: the count overflowed).
+    #[error("{what}: {} springs, more than 32-bit indices address (4,294,967,295)", count(.springs))]
     TooManySprings {
         /// What was asked for.
         what: String,
@@ -71,25 +72,9 @@ pub enum ModelSizeError {
         springs: Option<u64>,
     },
     /// The estimate exceeds the memory available.
+    #[error("{0}")]
     Memory(MemoryCheckError),
 }
-
-impl fmt::Display for ModelSizeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let count = |n: &Option<u64>| n.map_or("more than 2^64".to_string(), |n| n.to_string());
-        match self {
-            Self::TooManyNodes { what, nodes } => {
-                write!(f, "{what}: {} nodes, more than 32-bit indices address (4,294,967,295)", count(nodes))
-            }
-            Self::TooManySprings { what, springs } => {
-                write!(f, "{what}: {} springs, more than 32-bit indices address (4,294,967,295)", count(springs))
-            }
-            Self::Memory(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl std::error::Error for ModelSizeError {}
 
 impl ModelSize {
     /// A size from counts computed with checked arithmetic (`None`: overflowed).
@@ -126,4 +111,9 @@ impl ModelSize {
         );
         check_memory(&described, self.model_bytes().saturating_mul(factor)).map_err(ModelSizeError::Memory)
     }
+}
+
+/// A count for [`ModelSizeError`]'s messages (`None`: the count overflowed).
+fn count(n: &Option<u64>) -> String {
+    n.map_or("more than 2^64".to_string(), |n| n.to_string())
 }

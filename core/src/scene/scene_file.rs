@@ -13,7 +13,6 @@ use crate::model::Model;
 use crate::solver::{Effects, IntegrationParameters};
 use crate::yardstick::lattice_model;
 use serde::Deserialize;
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// The built-in default scene, also shipped as `config/scenes/default.toml`.
@@ -53,9 +52,10 @@ pub struct Scene {
 }
 
 /// Why a scene could not be loaded.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SceneLoadError {
     /// The file could not be read.
+    #[error("{path}: {message}")]
     Io {
         /// File.
         path: PathBuf,
@@ -63,6 +63,7 @@ pub enum SceneLoadError {
         message: String,
     },
     /// The TOML is malformed or a field has the wrong type or name.
+    #[error("{path}:{line}:{column}: {message}")]
     Syntax {
         /// File.
         path: PathBuf,
@@ -74,6 +75,7 @@ pub enum SceneLoadError {
         message: String,
     },
     /// A value is out of range.
+    #[error("{path}{}: {field}: {message}", .line.map(|l| format!(":{l}")).unwrap_or_default())]
     Value {
         /// File.
         path: PathBuf,
@@ -85,6 +87,7 @@ pub enum SceneLoadError {
         message: String,
     },
     /// The model named by the scene could not be built or read.
+    #[error("{path}: model: {message}")]
     Model {
         /// File.
         path: PathBuf,
@@ -92,22 +95,6 @@ pub enum SceneLoadError {
         message: String,
     },
 }
-
-impl fmt::Display for SceneLoadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            Self::Syntax { path, line, column, message } => write!(f, "{}:{line}:{column}: {message}", path.display()),
-            Self::Value { path, line: Some(line), field, message } => {
-                write!(f, "{}:{line}: {field}: {message}", path.display())
-            }
-            Self::Value { path, line: None, field, message } => write!(f, "{}: {field}: {message}", path.display()),
-            Self::Model { path, message } => write!(f, "{}: model: {message}", path.display()),
-        }
-    }
-}
-
-impl std::error::Error for SceneLoadError {}
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]

@@ -3,14 +3,15 @@
 
 use super::sparse_cholesky::FactorBuildError;
 use crate::model::ModelValidateError;
-use std::fmt;
 
 /// Why a simulation could not be built.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SimulationBuildError {
     /// The model is inconsistent.
+    #[error("invalid model: {0}")]
     Model(ModelValidateError),
     /// An effect names a node that does not exist.
+    #[error("{effect}: node {node} does not exist")]
     NodeOutOfRange {
         /// Which effect.
         effect: &'static str,
@@ -18,14 +19,17 @@ pub enum SimulationBuildError {
         node: u32,
     },
     /// An effect parameter is NaN, infinite or negative where it must not be.
+    #[error("{effect}: a value is NaN, infinite or out of range")]
     BadEffectValue {
         /// Which effect.
         effect: &'static str,
     },
     /// The step is not finite and positive, or sub-steps are zero.
+    #[error("time step must be finite and positive, sub-steps at least 1")]
     BadStep,
     /// A count is above its cap ([`MAX_SUBSTEPS`](super::MAX_SUBSTEPS),
     /// [`MAX_CG_ITERATIONS`](super::MAX_CG_ITERATIONS), ...).
+    #[error("{parameter} = {value} is above its cap of {cap}")]
     AboveCap {
         /// The parameter, as named in scene files.
         parameter: &'static str,
@@ -35,6 +39,7 @@ pub enum SimulationBuildError {
         cap: u64,
     },
     /// A solver setting is outside its range.
+    #[error("{parameter} = {value:e} must be {expected}")]
     BadParameter {
         /// The parameter, as named in scene files.
         parameter: &'static str,
@@ -45,6 +50,7 @@ pub enum SimulationBuildError {
     },
     /// A node lies beyond [`max_coordinate`](super::max_coordinate) of the precision: its
     /// squared distances would not be finite.
+    #[error("node {node} at ({:e}, {:e}, {:e}) m is beyond ±{limit_m:.1e} m, the largest coordinate whose squared distances stay finite in {precision}", .position[0], .position[1], .position[2])]
     PositionOutOfRange {
         /// The node.
         node: u32,
@@ -56,6 +62,7 @@ pub enum SimulationBuildError {
         precision: &'static str,
     },
     /// A mass or stiffness rounds to zero or overflows in the precision.
+    #[error("{item} rounds to zero or overflows in {precision}")]
     NotRepresentable {
         /// What and its value, e.g. `node 3: mass 1e-300 kg`.
         item: String,
@@ -63,9 +70,13 @@ pub enum SimulationBuildError {
         precision: &'static str,
     },
     /// Running the model would need more memory than is available.
+    #[error("{0}")]
     Memory(crate::model::ModelSizeError),
     /// The stiffest mode's frequency or damping rate is not finite (or the explicit
     /// critical step not positive): no step can follow the model.
+    #[error(
+        "the model's stiffest mode is not finite (omega_max {omega_max:e} rad/s, damping rate {gamma_max:e} 1/s); stiffest spring for its mass: {stiffest}"
+    )]
     NonFiniteStability {
         /// Highest angular frequency estimated, rad/s.
         omega_max: f64,
@@ -75,43 +86,9 @@ pub enum SimulationBuildError {
         stiffest: String,
     },
     /// The implicit solvers' prefactored matrix could not be factored.
+    #[error("prefactored matrix: {0}")]
     Factor(FactorBuildError),
 }
-
-impl fmt::Display for SimulationBuildError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Model(e) => write!(f, "invalid model: {e}"),
-            Self::NodeOutOfRange { effect, node } => write!(f, "{effect}: node {node} does not exist"),
-            Self::BadEffectValue { effect } => write!(f, "{effect}: a value is NaN, infinite or out of range"),
-            Self::BadStep => write!(f, "time step must be finite and positive, sub-steps at least 1"),
-            Self::AboveCap { parameter, value, cap } => {
-                write!(f, "{parameter} = {value} is above its cap of {cap}")
-            }
-            Self::BadParameter { parameter, value, expected } => {
-                write!(f, "{parameter} = {value:e} must be {expected}")
-            }
-            Self::PositionOutOfRange { node, position: p, limit_m, precision } => write!(
-                f,
-                "node {node} at ({:e}, {:e}, {:e}) m is beyond ±{limit_m:.1e} m, the largest coordinate whose \
-                 squared distances stay finite in {precision}",
-                p[0], p[1], p[2]
-            ),
-            Self::Memory(e) => write!(f, "{e}"),
-            Self::NotRepresentable { item, precision } => {
-                write!(f, "{item} rounds to zero or overflows in {precision}")
-            }
-            Self::NonFiniteStability { omega_max, gamma_max, stiffest } => write!(
-                f,
-                "the model's stiffest mode is not finite (omega_max {omega_max:e} rad/s, damping rate \
-                 {gamma_max:e} 1/s); stiffest spring for its mass: {stiffest}"
-            ),
-            Self::Factor(e) => write!(f, "prefactored matrix: {e}"),
-        }
-    }
-}
-
-impl std::error::Error for SimulationBuildError {}
 
 impl From<ModelValidateError> for SimulationBuildError {
     fn from(e: ModelValidateError) -> Self {

@@ -27,16 +27,16 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Par, Side};
-use std::fmt;
 
 /// Outputs per tile: two lane blocks, whose sums for three right-hand sides fill six
 /// registers.
 pub const TILE: usize = 2 * LANES;
 
 /// Why a matrix could not be factored.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FactorBuildError {
     /// An entry names a row or column outside the matrix, or is not finite.
+    #[error("matrix entry ({row}, {col}) is out of range or not finite")]
     BadEntry {
         /// Row.
         row: u32,
@@ -44,22 +44,12 @@ pub enum FactorBuildError {
         col: u32,
     },
     /// The matrix is not numerically positive definite.
+    #[error("the system matrix is not positive definite")]
     NotPositiveDefinite,
     /// The sparse factorisation failed (out of memory or index overflow).
+    #[error("sparse Cholesky factorisation failed: {0}")]
     Factorisation(String),
 }
-
-impl fmt::Display for FactorBuildError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::BadEntry { row, col } => write!(f, "matrix entry ({row}, {col}) is out of range or not finite"),
-            Self::NotPositiveDefinite => write!(f, "the system matrix is not positive definite"),
-            Self::Factorisation(m) => write!(f, "sparse Cholesky factorisation failed: {m}"),
-        }
-    }
-}
-
-impl std::error::Error for FactorBuildError {}
 
 /// Which inputs of a packed product can be non-zero for a given output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -10,7 +10,36 @@
 use crate::generator::vec3::{add, dot, norm, normalize, scale, sub};
 use crate::hand_tool::HandTool;
 use crate::model::{Model, NodeKind};
-use crate::scene::{Scene, ToolSettings, ToolSource};
+use crate::scene::{Scene, SceneLoadError, ToolSettings, ToolSource};
+use crate::solver::SimulationBuildError;
+
+/// Why an indentation could not be measured.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IndentationError {
+    /// The scene's model could not be built.
+    #[error(transparent)]
+    Scene(#[from] SceneLoadError),
+    /// The model has no outer-skin grid to pick sites on.
+    #[error("the model has no outer-skin grid (not a generated limb)")]
+    NoSkinGrid,
+    /// The model has no fixed nodes to press toward.
+    #[error("the model has no fixed (bone) nodes to press toward")]
+    NoBone,
+    /// A site's skin node coincides with its nearest bone node.
+    #[error("a skin node sits on the bone")]
+    SkinOnBone,
+    /// The simulation with the tool could not be built.
+    #[error(transparent)]
+    Simulation(#[from] SimulationBuildError),
+    /// The force on the sphere became NaN or infinite.
+    #[error("{site}: non-finite force at {depth_mm} mm")]
+    NonFiniteForce {
+        /// The site, e.g. `node 12 at (1.0, 2.0, 3.0) mm`.
+        site: String,
+        /// Depth reached, mm.
+        depth_mm: u32,
+    },
+}
 
 /// A published indentation modulus of limb soft tissue.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,19 +96,20 @@ pub struct IndentationCurve {
 ///
 /// # Errors
 /// A scene that does not build, has no outer-skin grid, or a non-finite force.
-pub fn indentation(scene: &Scene, sites: usize, max_depth_mm: u32) -> Result<(f64, Vec<IndentationCurve>), String> {
-    let model = scene.build_model().map_err(|e| e.to_string())?;
+pub fn indentation(
+    scene: &Scene,
+    sites: usize,
+    max_depth_mm: u32,
+) -> Result<(f64, Vec<IndentationCurve>), IndentationError> {
+    let model = scene.build_model()?;
     let settings = scene.tool.unwrap_or(ToolSettings {
         radius: 0.012,
         stiffness: 300.0,
         source: ToolSource::Haptics { device_origin: [0.0; 3], timeout_s: 0.1, min_radius: 0.012 },
     });
     let radius = settings.radius;
-    let (columns, rows, grid) = model
-        .surfaces
-        .first()
-        .and_then(|s| s.grid.as_ref())
-        .ok_or("the model has no outer-skin grid (not a generated limb)")?;
+    let (columns, rows, grid) =
+        model.surfaces.first().and_then(|s| s.grid.as_ref()).ok_or(IndentationError::NoSkinGrid)?;
     let (columns, rows) = ((*columns as usize).saturating_sub(1).max(1), *rows as usize);
     let mut curves = Vec::new();
     for k in 0..sites.max(1) {
@@ -97,18 +127,17 @@ fn press_site(
     settings: ToolSettings,
     node: usize,
     max_depth_mm: u32,
-) -> Result<IndentationCurve, String> {
+) -> Result<IndentationCurve, IndentationError> {
     let skin = model.nodes.position[node];
     let bone = (0..model.nodes.len())
         .filter(|&i| model.nodes.kind[i] == NodeKind::Fixed)
         .map(|i| model.nodes.position[i])
         .min_by(|a, b| norm(sub(*a, skin)).total_cmp(&norm(sub(*b, skin))))
-        .ok_or("the model has no fixed (bone) nodes to press toward")?;
-    let inward = normalize(sub(bone, skin)).ok_or("a skin node sits on the bone")?;
+        .ok_or(IndentationError::NoBone)?;
+    let inward = normalize(sub(bone, skin)).ok_or(IndentationError::SkinOnBone)?;
     let mut effects = scene.effects.clone();
     effects.handles.clear(); // only the tool loads the limb
-    let (mut sim, mut tool) =
-        HandTool::simulation::<f64>(model, scene.solver.clone(), effects, settings).map_err(|e| e.to_string())?;
+    let (mut sim, mut tool) = HandTool::simulation::<f64>(model, scene.solver.clone(), effects, settings)?;
     let dt = 1.0 / f64::from(scene.rate_hz);
     let touching = sub(skin, scale(inward, settings.radius));
     let (ramp_steps, hold_steps) = ((0.1 / dt).round() as usize, (0.2 / dt).round() as usize);
@@ -127,7 +156,7 @@ fn press_site(
         let f = tool.feedback(&sim);
         let push = -dot(f.force, inward);
         if !push.is_finite() {
-            return Err(format!("{}: non-finite force at {mm} mm", curve.site));
+            return Err(IndentationError::NonFiniteForce { site: curve.site, depth_mm: mm });
         }
         curve.depth_m.push(f64::from(mm) * 1e-3);
         curve.force_n.push(push);

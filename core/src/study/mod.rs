@@ -15,7 +15,8 @@ pub use accuracy::{
 };
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
 pub use indentation::{
-    IndentationCurve, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus, hertz_force, indentation,
+    IndentationCurve, IndentationError, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus,
+    hertz_force, indentation,
 };
 pub use reference::{MAX_REFERENCE_STEPS, Reference, ReferenceError, max_distance};
 pub use stability::{StabilityCase, StabilityRow, run_case, stability_cases};

@@ -14,30 +14,19 @@ use crate::solver::{Simulation, Vec3s};
 pub const MAX_REFERENCE_STEPS: u64 = 20_000_000;
 
 /// Why a reference run failed.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ReferenceError {
     /// The step size fell below 1e-14 of the run (the right-hand side is not smooth enough
     /// or not finite).
+    #[error("the reference integration's step underflowed at t = {time:e} s (non-finite forces?)")]
     StepUnderflow {
         /// Time reached, s.
         time: f64,
     },
     /// More than [`MAX_REFERENCE_STEPS`] steps were attempted.
+    #[error("the reference integration exceeded {MAX_REFERENCE_STEPS} steps")]
     TooManySteps,
 }
-
-impl std::fmt::Display for ReferenceError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::StepUnderflow { time } => {
-                write!(f, "the reference integration's step underflowed at t = {time:e} s (non-finite forces?)")
-            }
-            Self::TooManySteps => write!(f, "the reference integration exceeded {MAX_REFERENCE_STEPS} steps"),
-        }
-    }
-}
-
-impl std::error::Error for ReferenceError {}
 
 /// Positions and velocities, the integrated variables.
 #[derive(Clone)]
