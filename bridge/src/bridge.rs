@@ -69,19 +69,25 @@ impl BridgeConfig {
 }
 
 /// Why a [`Bridge`] could not be opened.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum BridgeOpenError {
     /// The user's domain directory or shared memory is not safely this user's.
+    #[error("{0}")]
     Domain(DomainError),
     /// The prefix is empty or makes an invalid iceoryx2 service name.
+    #[error("invalid service prefix")]
     InvalidPrefix,
     /// `root_path` is not a valid absolute directory path.
+    #[error("invalid iceoryx2 root path")]
     InvalidRootPath,
     /// `file_prefix` is not a valid file name.
+    #[error("invalid iceoryx2 file prefix")]
     InvalidFilePrefix,
     /// `node_name` is not a valid iceoryx2 node name.
+    #[error("invalid iceoryx2 node name")]
     InvalidNodeName,
     /// iceoryx2 could not create the node.
+    #[error("cannot create iceoryx2 node: {0} (iceoryx2 domain: root {root}, files /dev/shm/{file_prefix}*)", root = UserDomain::current().root.display(), file_prefix = UserDomain::current().file_prefix)]
     Node(NodeCreationFailure),
 }
 
@@ -90,26 +96,6 @@ impl From<NodeCreationFailure> for BridgeOpenError {
         Self::Node(value)
     }
 }
-
-impl core::fmt::Display for BridgeOpenError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::InvalidPrefix => write!(f, "invalid service prefix"),
-            Self::InvalidRootPath => write!(f, "invalid iceoryx2 root path"),
-            Self::InvalidFilePrefix => write!(f, "invalid iceoryx2 file prefix"),
-            Self::InvalidNodeName => write!(f, "invalid iceoryx2 node name"),
-            Self::Domain(e) => write!(f, "{e}"),
-            Self::Node(e) => write!(
-                f,
-                "cannot create iceoryx2 node: {e} (iceoryx2 domain: root {}, files /dev/shm/{}*)",
-                UserDomain::current().root.display(),
-                UserDomain::current().file_prefix
-            ),
-        }
-    }
-}
-
-impl core::error::Error for BridgeOpenError {}
 
 /// The iceoryx2 service names of one simulation, `<prefix>/<service>`.
 ///

@@ -34,9 +34,10 @@ pub const IPC_DIR_ENV: &str = "LAMINA_IPC_DIR";
 const SHM_DIR: &str = "/dev/shm";
 
 /// Why a user's domain could not be used.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DomainError {
     /// The domain directory could not be created or inspected.
+    #[error("{path}: {message}")]
     Io {
         /// The directory or file.
         path: PathBuf,
@@ -44,11 +45,15 @@ pub enum DomainError {
         message: String,
     },
     /// The domain directory is a symbolic link or not a directory.
+    #[error("{path}: the iceoryx2 domain must be a directory, not a link or a file")]
     NotADirectory {
         /// The path.
         path: PathBuf,
     },
     /// A domain file or directory belongs to another user (someone created it first).
+    #[error(
+        "{path}: belongs to uid {owner}, not to this user (uid {uid}); Lamina will not share its iceoryx2 domain with another user: remove it or set {IPC_DIR_ENV}"
+    )]
     ForeignOwner {
         /// The path.
         path: PathBuf,
@@ -58,6 +63,7 @@ pub enum DomainError {
         uid: u32,
     },
     /// The domain directory grants group or other users access.
+    #[error("{path}: mode {mode:04o} lets other users in; the iceoryx2 domain must be 0700 (chmod 700 it)")]
     TooOpen {
         /// The directory.
         path: PathBuf,
@@ -65,30 +71,6 @@ pub enum DomainError {
         mode: u32,
     },
 }
-
-impl core::fmt::Display for DomainError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            Self::NotADirectory { path } => {
-                write!(f, "{}: the iceoryx2 domain must be a directory, not a link or a file", path.display())
-            }
-            Self::ForeignOwner { path, owner, uid } => write!(
-                f,
-                "{}: belongs to uid {owner}, not to this user (uid {uid}); Lamina will not share its iceoryx2 \
-                 domain with another user: remove it or set {IPC_DIR_ENV}",
-                path.display()
-            ),
-            Self::TooOpen { path, mode } => write!(
-                f,
-                "{}: mode {mode:04o} lets other users in; the iceoryx2 domain must be 0700 (chmod 700 it)",
-                path.display()
-            ),
-        }
-    }
-}
-
-impl core::error::Error for DomainError {}
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> DomainError + '_ {
     move |e| DomainError::Io { path: path.to_path_buf(), message: e.to_string() }
@@ -179,9 +161,10 @@ impl UserDomain {
 }
 
 /// Why a prefix lock was not taken.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PrefixLockError {
     /// Another process publishes node frames on the prefix.
+    #[error("prefix '{prefix}' is live: another process{} already publishes its node frames (lock {lock}); stop it or choose another --prefix", .holder_pid.map_or(String::new(), |p| format!(" (pid {p})")))]
     InUse {
         /// The service prefix.
         prefix: String,
@@ -191,6 +174,7 @@ pub enum PrefixLockError {
         lock: PathBuf,
     },
     /// The lock file could not be created or locked.
+    #[error("{lock}: {message}")]
     Io {
         /// The lock file.
         lock: PathBuf,
@@ -198,23 +182,6 @@ pub enum PrefixLockError {
         message: String,
     },
 }
-
-impl core::fmt::Display for PrefixLockError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::InUse { prefix, holder_pid, lock } => write!(
-                f,
-                "prefix '{prefix}' is live: another process{} already publishes its node frames (lock {}); \
-                 stop it or choose another --prefix",
-                holder_pid.map_or(String::new(), |p| format!(" (pid {p})")),
-                lock.display()
-            ),
-            Self::Io { lock, message } => write!(f, "{}: {message}", lock.display()),
-        }
-    }
-}
-
-impl core::error::Error for PrefixLockError {}
 
 /// An exclusive lock on a service prefix, held while it lives (see the module docs).
 #[derive(Debug)]

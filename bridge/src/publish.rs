@@ -51,9 +51,10 @@ use crate::wire::NodesHeader;
 use lamina_rt::now_ns;
 
 /// Why a node frame was not published. Nothing was sent when this is returned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum NodesPublishError {
     /// More nodes than the publisher was created for (`requested > max`).
+    #[error("cannot publish node frame: {requested} nodes exceed the maximum of {max}")]
     TooManyNodes {
         /// Node count of the rejected frame.
         requested: usize,
@@ -61,17 +62,21 @@ pub enum NodesPublishError {
         max: usize,
     },
     /// No shared-memory chunk could be loaned.
+    #[error("cannot publish node frame: {0}")]
     Loan(LoanError),
     /// iceoryx2 could not deliver the sample.
+    #[error("cannot publish node frame: {0}")]
     Send(SendError),
 }
 
 /// Why a topology was not published. Nothing was sent when this is returned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum TopologyPublishError {
     /// The topology is invalid.
+    #[error("cannot publish topology: {0}")]
     Encode(TopologyEncodeError),
     /// The encoding needs more words than the publisher was created for.
+    #[error("cannot publish topology: {words} words exceed the maximum of {max}")]
     TooLarge {
         /// Words the topology needs.
         words: usize,
@@ -79,22 +84,26 @@ pub enum TopologyPublishError {
         max: usize,
     },
     /// No shared-memory chunk could be loaned.
+    #[error("cannot publish topology: {0}")]
     Loan(LoanError),
     /// iceoryx2 could not deliver the sample.
+    #[error("cannot publish topology: {0}")]
     Send(SendError),
 }
 
 /// Why a message (tool, feedback, stats) was not published.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum MessagePublishError {
     /// No shared-memory chunk could be loaned.
+    #[error("cannot publish message: {0}")]
     Loan(LoanError),
     /// iceoryx2 could not deliver the sample.
+    #[error("cannot publish message: {0}")]
     Send(SendError),
 }
 
 macro_rules! publish_error_impls {
-    ($t:ident, $what:literal) => {
+    ($t:ident) => {
         impl From<LoanError> for $t {
             fn from(value: LoanError) -> Self {
                 Self::Loan(value)
@@ -105,50 +114,11 @@ macro_rules! publish_error_impls {
                 Self::Send(value)
             }
         }
-        impl core::error::Error for $t {}
-        impl core::fmt::Display for $t {
-            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-                write!(f, concat!("cannot publish ", $what, ": "))?;
-                self.describe(f)
-            }
-        }
     };
 }
-publish_error_impls!(NodesPublishError, "node frame");
-publish_error_impls!(TopologyPublishError, "topology");
-publish_error_impls!(MessagePublishError, "message");
-
-impl NodesPublishError {
-    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::TooManyNodes { requested, max } => {
-                write!(f, "{requested} nodes exceed the maximum of {max}")
-            }
-            Self::Loan(e) => write!(f, "{e}"),
-            Self::Send(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl TopologyPublishError {
-    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Encode(e) => write!(f, "{e}"),
-            Self::TooLarge { words, max } => write!(f, "{words} words exceed the maximum of {max}"),
-            Self::Loan(e) => write!(f, "{e}"),
-            Self::Send(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl MessagePublishError {
-    fn describe(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Loan(e) => write!(f, "{e}"),
-            Self::Send(e) => write!(f, "{e}"),
-        }
-    }
-}
+publish_error_impls!(NodesPublishError);
+publish_error_impls!(TopologyPublishError);
+publish_error_impls!(MessagePublishError);
 
 impl From<TopologyEncodeError> for TopologyPublishError {
     fn from(value: TopologyEncodeError) -> Self {
@@ -157,24 +127,15 @@ impl From<TopologyEncodeError> for TopologyPublishError {
 }
 
 /// Why a [`NodesPublisher`] could not be created.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum NodesPublisherCreateError {
     /// Another process publishes node frames on this prefix (one core per prefix).
+    #[error("{0}")]
     PrefixInUse(PrefixLockError),
     /// iceoryx2 refused the service, publisher or notifier.
+    #[error("{0}")]
     Port(PortCreateError),
 }
-
-impl core::fmt::Display for NodesPublisherCreateError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::PrefixInUse(e) => write!(f, "{e}"),
-            Self::Port(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl core::error::Error for NodesPublisherCreateError {}
 
 impl<E: Into<PortCreateError>> From<E> for NodesPublisherCreateError {
     fn from(value: E) -> Self {

@@ -135,11 +135,12 @@ impl core::fmt::Display for SettingMismatch {
 }
 
 /// Why a service could not be opened or created.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ServiceOpenError {
     /// The service exists with settings or types Lamina cannot use: another process (a client
     /// with iceoryx2's default settings, an older build) created it first. Every mismatch is
     /// listed with the value found and the value Lamina needs.
+    #[error("{pattern} service '{service}' exists with settings Lamina cannot use: {}. Another process created it first with other settings (iceoryx2's defaults, for example): stop it, or have it open or create the service with Lamina's settings (examples/python/README.md lists them), then start again", join_mismatches(.mismatches))]
     Incompatible {
         /// `publish-subscribe` or `event`.
         pattern: &'static str,
@@ -149,6 +150,7 @@ pub enum ServiceOpenError {
         mismatches: Vec<SettingMismatch>,
     },
     /// iceoryx2 refused the publish-subscribe service for another reason.
+    #[error("cannot open or create publish-subscribe service '{service}': {error:?}")]
     PublishSubscribe {
         /// The service name.
         service: String,
@@ -156,6 +158,7 @@ pub enum ServiceOpenError {
         error: PublishSubscribeOpenOrCreateError,
     },
     /// iceoryx2 refused the wake-up event service for another reason.
+    #[error("cannot open or create event service '{service}': {error:?}")]
     Event {
         /// The service name.
         service: String,
@@ -164,43 +167,28 @@ pub enum ServiceOpenError {
     },
 }
 
-impl core::fmt::Display for ServiceOpenError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Incompatible { pattern, service, mismatches } => {
-                write!(f, "{pattern} service '{service}' exists with settings Lamina cannot use: ")?;
-                for (i, m) in mismatches.iter().enumerate() {
-                    write!(f, "{}{m}", if i == 0 { "" } else { ", " })?;
-                }
-                write!(
-                    f,
-                    ". Another process created it first with other settings (iceoryx2's defaults, for example): \
-                     stop it, or have it open or create the service with Lamina's settings \
-                     (examples/python/README.md lists them), then start again"
-                )
-            }
-            Self::PublishSubscribe { service, error } => {
-                write!(f, "cannot open or create publish-subscribe service '{service}': {error:?}")
-            }
-            Self::Event { service, error } => write!(f, "cannot open or create event service '{service}': {error:?}"),
-        }
-    }
+/// `a 1 (Lamina needs 2), b 3 (Lamina needs 4)`.
+fn join_mismatches(mismatches: &[SettingMismatch]) -> String {
+    mismatches.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
 }
 
-impl core::error::Error for ServiceOpenError {}
-
 /// Why a publisher or subscriber (with its notifier or listener) could not be created.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PortCreateError {
     /// The service itself could not be opened.
+    #[error("{0}")]
     Service(ServiceOpenError),
     /// iceoryx2 refused the publisher (for example: too many publishers).
+    #[error("cannot create publisher: {0}")]
     Publisher(PublisherCreateError),
     /// iceoryx2 refused the subscriber (for example: too many subscribers).
+    #[error("cannot create subscriber: {0}")]
     Subscriber(SubscriberCreateError),
     /// iceoryx2 refused the wake-up notifier.
+    #[error("cannot create notifier: {0}")]
     Notifier(NotifierCreateError),
     /// iceoryx2 refused the wake-up listener.
+    #[error("cannot create listener: {0}")]
     Listener(ListenerCreateError),
 }
 
@@ -229,20 +217,6 @@ impl From<ListenerCreateError> for PortCreateError {
         Self::Listener(value)
     }
 }
-
-impl core::fmt::Display for PortCreateError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Service(e) => write!(f, "{e}"),
-            Self::Publisher(e) => write!(f, "cannot create publisher: {e}"),
-            Self::Subscriber(e) => write!(f, "cannot create subscriber: {e}"),
-            Self::Notifier(e) => write!(f, "cannot create notifier: {e}"),
-            Self::Listener(e) => write!(f, "cannot create listener: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for PortCreateError {}
 
 /// What Lamina asks of a publish-subscribe service: every field a minimum, except
 /// `safe_overflow`, which must match. A service created with larger values is used as it is.

@@ -45,13 +45,16 @@ use crate::topology::{Topology, TopologyDecodeError};
 use crate::wire::{NodesHeader, TopologyHeader};
 
 /// Why receiving failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum SampleReceiveError {
     /// iceoryx2 could not receive (too many samples held, or a broken connection).
+    #[error("cannot receive: {0}")]
     Receive(ReceiveError),
     /// Waiting on the wake-up event failed.
+    #[error("cannot wait for a sample: {0}")]
     Wait(ListenerWaitError),
     /// A signal interrupted the wait; check for termination, then call again.
+    #[error("wait interrupted by a signal")]
     Interrupted,
 }
 
@@ -69,18 +72,6 @@ impl From<ListenerWaitError> for SampleReceiveError {
         }
     }
 }
-
-impl core::fmt::Display for SampleReceiveError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Receive(e) => write!(f, "cannot receive: {e}"),
-            Self::Wait(e) => write!(f, "cannot wait for a sample: {e}"),
-            Self::Interrupted => write!(f, "wait interrupted by a signal"),
-        }
-    }
-}
-
-impl core::error::Error for SampleReceiveError {}
 
 /// The listener half of a subscriber: sleeps until the publisher's notification.
 #[derive(Debug)]
