@@ -82,27 +82,18 @@ pub struct HapticsReport {
 }
 
 /// Why the haptics loop could not start.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum HapticsStartError {
     /// The `tool` or `feedback` port could not be created.
+    #[error("haptics ports: {0}")]
     Port(PortCreateError),
     /// The loop rate is invalid.
+    #[error("haptics loop rate: {0}")]
     Rate(String),
     /// The device's limits are not usable (non-positive or non-finite).
+    #[error("haptic device limits: {0}")]
     DeviceLimits(String),
 }
-
-impl core::fmt::Display for HapticsStartError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Port(e) => write!(f, "haptics ports: {e}"),
-            Self::Rate(e) => write!(f, "haptics loop rate: {e}"),
-            Self::DeviceLimits(e) => write!(f, "haptic device limits: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for HapticsStartError {}
 
 /// Runs the device loop until `limit`, then commands zero force and returns the report.
 ///

@@ -4,11 +4,12 @@
 //! goes quiet). Prints the device loop's rate and jitter and the core-to-device latency at
 //! exit, and writes them as JSON with `--report`.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
+use anyhow::{Context, bail};
 use clap::Parser;
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_haptics::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
@@ -69,6 +70,9 @@ struct Args {
     /// Print only the final table.
     #[arg(long)]
     quiet: bool,
+    /// Diagnostics shown on stderr: error, warn, info, debug or trace.
+    #[arg(long, value_name = "LEVEL", default_value = "info")]
+    log_level: tracing::Level,
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
@@ -255,18 +259,19 @@ fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
     out.flush()
 }
 
-fn run(args: &Args) -> Result<bool, String> {
-    let (mut device, script_s) =
-        open_device(&args.device, &args.device_args).map_err(|e| format!("haptic device '{}': {e}", args.device))?;
+fn run(args: &Args) -> anyhow::Result<bool> {
+    let (mut device, script_s) = open_device(&args.device, &args.device_args)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("haptic device '{}'", args.device))?;
     let scene = args.scene.as_deref().map(SceneFile::read).transpose()?;
     let context = RunContext::start(scene);
     let seconds = args.seconds.or(script_s.map(|s| s + 0.2));
     if let Some(s) = seconds
         && !(s.is_finite() && s > 0.0)
     {
-        return Err("--seconds must be positive".into());
+        bail!("--seconds must be positive");
     }
-    let bridge = Bridge::open(&BridgeConfig::with_prefix(&args.prefix)).map_err(|e| format!("bridge: {e}"))?;
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&args.prefix)).context("bridge")?;
     let _ = install_stop_handler(&STOP);
     let (tx, rx) = crossbeam::channel::bounded::<SafetyEvent>(1024);
     let quiet = args.quiet;
@@ -275,7 +280,7 @@ fn run(args: &Args) -> Result<bool, String> {
         for ev in rx {
             let t0 = *first.get_or_insert(ev.time_ns);
             if !quiet {
-                eprintln!("haptics: [{:>9.3} ms, tick {}] {}", (ev.time_ns - t0) as f64 / 1e6, ev.tick, ev.kind);
+                tracing::warn!("haptics: [{:>9.3} ms, tick {}] {}", (ev.time_ns - t0) as f64 / 1e6, ev.tick, ev.kind);
             }
         }
     });
@@ -306,7 +311,7 @@ fn run(args: &Args) -> Result<bool, String> {
         None => RunLimit::until_stopped(&STOP),
     };
     let watch = TopologyWatch::start(&args.prefix);
-    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx)).map_err(|e| e.to_string());
+    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx));
     let model = watch.finish();
     let report = report?;
     drop(tx);
@@ -315,16 +320,16 @@ fn run(args: &Args) -> Result<bool, String> {
     if let Some(path) = &args.report {
         let c = ReportContext { run: &context, prefix: &args.prefix, device: &name, rate_hz: args.rate_hz, model };
         let text = serde_json::to_string_pretty(&report_json(&report, &c)).unwrap_or_default();
-        std::fs::write(path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
-        println!("report written to {}", path.display());
+        std::fs::write(path, text + "\n").with_context(|| format!("writing the report {}", path.display()))?;
+        tracing::info!("report written to {}", path.display());
     }
     if let Some(path) = &args.trace_csv {
-        write_trace(&report, path).map_err(|e| format!("{}: {e}", path.display()))?;
-        println!("trace written to {} ({} ticks)", path.display(), report.trace.len());
+        write_trace(&report, path).with_context(|| format!("writing the trace {}", path.display()))?;
+        tracing::info!("trace written to {} ({} ticks)", path.display(), report.trace.len());
     }
     match &report.device_error {
         Some(e) => {
-            eprintln!("haptics: device '{name}' failed: {e}. Force set to zero; the core keeps running.");
+            tracing::error!("haptics: device '{name}' failed: {e}. Force set to zero; the core keeps running.");
             Ok(false)
         }
         None => Ok(true),
@@ -333,11 +338,18 @@ fn run(args: &Args) -> Result<bool, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(args.log_level)
+        .with_target(false)
+        .without_time()
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
     match run(&args) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(3),
         Err(e) => {
-            eprintln!("lamina-haptics: {e}");
+            eprintln!("lamina-haptics: {e:#}");
             ExitCode::from(2)
         }
     }

@@ -21,6 +21,27 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Why `--scene` could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneFileError {
+    /// The file could not be read.
+    #[error("--scene {}: {error}", .path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        error: std::io::Error,
+    },
+    /// The file is not TOML.
+    #[error("--scene {}: not a scene file: {message}", path.display())]
+    NotToml {
+        /// The file.
+        path: PathBuf,
+        /// The TOML parser's message.
+        message: String,
+    },
+}
+
 /// The scene file the core runs, as named on the command line.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SceneFile {
@@ -37,12 +58,13 @@ impl SceneFile {
     ///
     /// # Errors
     /// The file cannot be read or is not TOML, named with the path.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("--scene {}: {e}", path.display()))?;
+    pub fn read(path: &Path) -> Result<Self, SceneFileError> {
+        let bytes = std::fs::read(path).map_err(|error| SceneFileError::Read { path: path.to_path_buf(), error })?;
         let text = String::from_utf8_lossy(&bytes);
-        let table: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| format!("--scene {}: not a scene file: {}", path.display(), e.message()))?;
+        let table: toml::Table = text.parse().map_err(|e: toml::de::Error| SceneFileError::NotToml {
+            path: path.to_path_buf(),
+            message: e.message().to_string(),
+        })?;
         let name = table.get("name").and_then(toml::Value::as_str).unwrap_or("unnamed").to_string();
         Ok(Self { file: path.to_path_buf(), name, sha256: sha256_hex(&bytes) })
     }
@@ -142,9 +164,9 @@ mod tests {
         assert_eq!((s.name.as_str(), s.sha256.len()), ("x", 64));
         let bad = dir.join("bad.toml");
         std::fs::write(&bad, "name = = 1").unwrap();
-        let e = SceneFile::read(&bad).unwrap_err();
+        let e = SceneFile::read(&bad).unwrap_err().to_string();
         assert!(e.contains("bad.toml") && e.contains("not a scene file"), "{e}");
-        let e = SceneFile::read(&dir.join("missing.toml")).unwrap_err();
+        let e = SceneFile::read(&dir.join("missing.toml")).unwrap_err().to_string();
         assert!(e.contains("missing.toml"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }

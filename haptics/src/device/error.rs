@@ -1,14 +1,16 @@
 //! Why a device call failed.
 
 /// Why a device call failed.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DeviceError {
     /// The device vanished mid-run (unplugged, powered off, driver gone).
+    #[error("haptic device disconnected: {detail}")]
     Disconnected {
         /// What the driver said.
         detail: String,
     },
     /// A plugin library could not be loaded, or lacks a function of the ABI.
+    #[error("device plugin {path}: cannot load: {detail}")]
     PluginLoad {
         /// The library.
         path: String,
@@ -16,6 +18,9 @@ pub enum DeviceError {
         detail: String,
     },
     /// A plugin speaks another ABI version.
+    #[error(
+        "device plugin {path}: ABI version {found}, this Lamina speaks {expected} (rebuild it against haptics/include/lamina_device.h)"
+    )]
     PluginAbi {
         /// The library.
         path: String,
@@ -25,6 +30,7 @@ pub enum DeviceError {
         expected: u32,
     },
     /// The plugin could not open its device (or reported unusable limits).
+    #[error("device plugin {path}: could not open the device: {detail}")]
     PluginOpen {
         /// The library.
         path: String,
@@ -32,6 +38,7 @@ pub enum DeviceError {
         detail: String,
     },
     /// A plugin call failed for another reason than a disconnection.
+    #[error("device plugin {path}: call failed ({code}): {detail}")]
     Plugin {
         /// The library.
         path: String,
@@ -41,6 +48,7 @@ pub enum DeviceError {
         detail: String,
     },
     /// A trajectory file is malformed.
+    #[error("{file}{}: {what}", if *.line == 0 { String::new() } else { format!(":{}", .line) })]
     Script {
         /// The file.
         file: String,
@@ -50,22 +58,3 @@ pub enum DeviceError {
         what: String,
     },
 }
-
-impl core::fmt::Display for DeviceError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Disconnected { detail } => write!(f, "haptic device disconnected: {detail}"),
-            Self::PluginLoad { path, detail } => write!(f, "device plugin {path}: cannot load: {detail}"),
-            Self::PluginAbi { path, found, expected } => write!(
-                f,
-                "device plugin {path}: ABI version {found}, this Lamina speaks {expected} (rebuild it against haptics/include/lamina_device.h)"
-            ),
-            Self::PluginOpen { path, detail } => write!(f, "device plugin {path}: could not open the device: {detail}"),
-            Self::Plugin { path, code, detail } => write!(f, "device plugin {path}: call failed ({code}): {detail}"),
-            Self::Script { file, line: 0, what } => write!(f, "{file}: {what}"),
-            Self::Script { file, line, what } => write!(f, "{file}:{line}: {what}"),
-        }
-    }
-}
-
-impl core::error::Error for DeviceError {}
