@@ -6,10 +6,12 @@
 //! lamina-viewer --synthetic                                           # window (headless without a display)
 //! ```
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
+use anyhow::{Context, bail};
 use clap::{Parser, ValueEnum};
 use lamina_viewer::app::{HeadlessViewer, Hud, ViewerOptions};
 use lamina_viewer::mesh_build::{MeshOptions, SpringDisplay};
@@ -108,6 +110,9 @@ struct Args {
     /// once per second).
     #[arg(long)]
     verbose: bool,
+    /// Diagnostics shown on stderr: error, warn, info, debug or trace.
+    #[arg(long, value_name = "LEVEL", default_value = "info")]
+    log_level: tracing::Level,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -172,17 +177,17 @@ fn options(args: &Args) -> ViewerOptions {
 }
 
 /// The full model for the live source: the scene the core runs.
-fn reference_model(args: &Args) -> Result<ViewModel, String> {
+fn reference_model(args: &Args) -> anyhow::Result<ViewModel> {
     use lamina_core::scene::Scene;
     let scene = match &args.scene {
-        Some(path) => Scene::load(path).map_err(|e| e.to_string())?,
+        Some(path) => Scene::load(path)?,
         None => Scene::builtin_default(),
     };
-    let model = scene.build_model().map_err(|e| e.to_string())?;
+    let model = scene.build_model()?;
     Ok(ViewModel::from_core_model(&model))
 }
 
-fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
+fn open_source(args: &Args) -> anyhow::Result<Box<dyn FrameSource>> {
     if args.synthetic {
         return Ok(Box::new(SyntheticSource::default()));
     }
@@ -195,7 +200,7 @@ fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
         Err(e) if args.scene.is_some() => return Err(e),
         Err(_) => None,
     };
-    Ok(Box::new(LiveSource::open(&args.prefix, reference).map_err(|e| e.to_string())?))
+    Ok(Box::new(LiveSource::open(&args.prefix, reference)?))
 }
 
 /// Rolling figures for the overlay and the exit report.
@@ -237,14 +242,14 @@ impl Figures {
     }
 }
 
-fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String> {
+fn run_headless(args: &Args, source: &mut dyn FrameSource) -> anyhow::Result<()> {
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating the frame folder {}", dir.display()))?;
     }
     if args.script.is_some() {
-        return Err("--script drives the window; it needs a display".into());
+        bail!("--script drives the window; it needs a display");
     }
-    let mut viewer = HeadlessViewer::new(options(args)).map_err(|e| e.to_string())?;
+    let mut viewer = HeadlessViewer::new(options(args))?;
     println!("lamina-viewer: {} on {}, {}x{}", source.describe(), viewer.adapter(), args.size.0, args.size.1);
     let mut index = match &args.out {
         Some(dir) => Some(FrameIndex::create(&dir.join(FrameIndex::FILE))?),
@@ -274,11 +279,11 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
             SourceEvent::Idle(what) => {
                 let since = *idle_since.get_or_insert_with(Instant::now);
                 if last_report.elapsed() >= Duration::from_secs(2) || since.elapsed() < Duration::from_millis(600) {
-                    println!("lamina-viewer: {what}");
+                    tracing::info!("{what}");
                     last_report = Instant::now();
                 }
                 if args.wait_limit_s.is_some_and(|s| since.elapsed().as_secs_f64() > s) {
-                    println!("lamina-viewer: gave up waiting after {:.1} s", since.elapsed().as_secs_f64());
+                    tracing::warn!("gave up waiting after {:.1} s", since.elapsed().as_secs_f64());
                     break;
                 }
             }
@@ -300,7 +305,7 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                     &frame,
                     &model_name,
                 );
-                let timing = viewer.render(&frame, &hud).map_err(|e| e.to_string())?;
+                let timing = viewer.render(&frame, &hud)?;
                 if frame.publish_time_ns > 0 {
                     figures.latency_drawn.push(lamina_bridge::now_ns().saturating_sub(frame.publish_time_ns));
                 }
@@ -309,7 +314,7 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                 {
                     let (w, h) = viewer.size();
                     let path = dir.join(format!("frame_{rendered:05}.png"));
-                    write_png(&path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
+                    write_png(&path, w, h, viewer.pixels()).with_context(|| format!("writing {}", path.display()))?;
                     if let Some(index) = index.as_mut() {
                         index.row(&path, &frame, viewer.composer().view().map(|v| v.0))?;
                     }
@@ -318,8 +323,8 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                     && rendered + 1 >= n
                 {
                     let (w, h) = viewer.size();
-                    write_png(path, w, h, viewer.pixels()).map_err(|e| format!("{}: {e}", path.display()))?;
-                    println!("screenshot after {} frames: {}", rendered + 1, path.display());
+                    write_png(path, w, h, viewer.pixels()).with_context(|| format!("writing {}", path.display()))?;
+                    tracing::info!("screenshot after {} frames: {}", rendered + 1, path.display());
                     rendered += 1;
                     break;
                 }
@@ -359,10 +364,10 @@ impl FrameIndex {
     const HEADER: &str = "file,sequence,sim_time_s,tool_x_m,tool_y_m,tool_z_m,tool_radius_m,\
                           eye_x_m,eye_y_m,eye_z_m,target_x_m,target_y_m,target_z_m,up_x,up_y,up_z,fov_y_rad";
 
-    fn create(path: &std::path::Path) -> Result<Self, String> {
+    fn create(path: &std::path::Path) -> anyhow::Result<Self> {
         use std::io::Write;
-        let mut file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        writeln!(file, "{}", Self::HEADER).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        writeln!(file, "{}", Self::HEADER).with_context(|| format!("writing {}", path.display()))?;
         Ok(Self { file, path: path.to_path_buf() })
     }
 
@@ -372,7 +377,7 @@ impl FrameIndex {
         png: &std::path::Path,
         frame: &Frame,
         camera: Option<lamina_viewer::camera::Camera>,
-    ) -> Result<(), String> {
+    ) -> anyhow::Result<()> {
         use std::io::Write;
         let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let tool = frame.tool.map_or_else(
@@ -389,7 +394,7 @@ impl FrameIndex {
             },
         );
         writeln!(self.file, "{name},{},{},{tool},{cam}", frame.sequence, frame.sim_time_s)
-            .map_err(|e| format!("{}: {e}", self.path.display()))
+            .with_context(|| format!("writing {}", self.path.display()))
     }
 }
 
@@ -410,11 +415,18 @@ static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(args.log_level)
+        .with_target(false)
+        .without_time()
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
     let _ = lamina_rt::install_stop_handler(&STOP);
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("lamina-viewer: {e}");
+            eprintln!("lamina-viewer: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -429,7 +441,7 @@ fn frames_destination(args: &Args) -> String {
 }
 
 /// A window when there is a display and one can be opened, else headless (saying why).
-fn run(args: &Args) -> Result<(), String> {
+fn run(args: &Args) -> anyhow::Result<()> {
     use lamina_viewer::window::{self, WindowOptions, WindowRunError};
     if args.headless {
         return run_headless(args, open_source(args)?.as_mut());
@@ -437,21 +449,20 @@ fn run(args: &Args) -> Result<(), String> {
     let no_display = std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty())
         && std::env::var_os("WAYLAND_DISPLAY").is_none_or(|d| d.is_empty());
     if no_display {
-        println!(
-            "lamina-viewer: no display (DISPLAY and WAYLAND_DISPLAY unset): headless, {}",
-            frames_destination(args)
-        );
+        tracing::warn!("no display (DISPLAY and WAYLAND_DISPLAY unset): headless, {}", frames_destination(args));
         return run_headless(args, open_source(args)?.as_mut());
     }
     let event_loop = match window::event_loop() {
         Ok(event_loop) => event_loop,
         Err(e) => {
-            println!("lamina-viewer: {e}: headless, {}", frames_destination(args));
+            tracing::warn!("{e}: headless, {}", frames_destination(args));
             return run_headless(args, open_source(args)?.as_mut());
         }
     };
     let script = match &args.script {
-        Some(text) => lamina_viewer::controls::parse_script(text, (args.size.0 as f32, args.size.1 as f32))?,
+        Some(text) => lamina_viewer::controls::parse_script(text, (args.size.0 as f32, args.size.1 as f32))
+            .map_err(anyhow::Error::msg)
+            .context("--script")?,
         None => Vec::new(),
     };
     let window_options = WindowOptions {
@@ -464,9 +475,9 @@ fn run(args: &Args) -> Result<(), String> {
     let mut source = open_source(args)?;
     match window::run(event_loop, source.as_mut(), options(args), window_options) {
         Err(WindowRunError::Setup(e)) => {
-            println!("lamina-viewer: cannot set up the window ({e}): headless, {}", frames_destination(args));
+            tracing::warn!("cannot set up the window ({e}): headless, {}", frames_destination(args));
             run_headless(args, source.as_mut())
         }
-        other => other.map_err(|e| e.to_string()),
+        other => Ok(other?),
     }
 }

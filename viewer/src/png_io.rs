@@ -5,30 +5,21 @@ use std::io::{BufReader, BufWriter};
 use std::path::Path;
 
 /// Why a PNG could not be written or read.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum PngIoError {
     /// Opening or creating the file failed.
+    #[error("{0}")]
     Io(std::io::Error),
     /// Encoding failed.
+    #[error("cannot encode PNG: {0}")]
     Encode(png::EncodingError),
     /// Decoding failed.
+    #[error("cannot decode PNG: {0}")]
     Decode(png::DecodingError),
     /// The file is not 8-bit RGBA.
+    #[error("not an 8-bit RGBA PNG")]
     UnsupportedFormat,
 }
-
-impl core::fmt::Display for PngIoError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Io(e) => write!(f, "{e}"),
-            Self::Encode(e) => write!(f, "cannot encode PNG: {e}"),
-            Self::Decode(e) => write!(f, "cannot decode PNG: {e}"),
-            Self::UnsupportedFormat => write!(f, "not an 8-bit RGBA PNG"),
-        }
-    }
-}
-
-impl core::error::Error for PngIoError {}
 
 /// Writes `rgba` (`width × height` pixels, rows top to bottom) to `path`.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), PngIoError> {

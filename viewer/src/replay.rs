@@ -7,11 +7,11 @@
 //! on; after the last frame the source stays idle, so the picture keeps the last state.
 
 use core::time::Duration;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
-use lamina_core::io::{RecordedFrame, read_recorded_points, read_recording};
+use lamina_core::io::{RecordReadError, RecordedFrame, read_recorded_points, read_recording};
 
 use crate::source::{FrameSource, SourceEvent};
 use crate::view_model::{Frame, ViewModel};
@@ -28,6 +28,29 @@ pub struct ReplaySource {
     origin: Option<(Instant, f64)>,
 }
 
+/// Why a recording could not be opened for replay.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayOpenError {
+    /// The collection or its first frame could not be read.
+    #[error(transparent)]
+    Read(#[from] RecordReadError),
+    /// The recording's point count differs from the model's node count.
+    #[error(
+        "{}: the recording has {recorded} nodes, the scene's model '{model}' {nodes}: give the scene it was recorded from with --scene",
+        .pvd.display()
+    )]
+    NodeCount {
+        /// The collection.
+        pvd: PathBuf,
+        /// Points per recorded frame.
+        recorded: usize,
+        /// The model's name.
+        model: String,
+        /// The model's node count.
+        nodes: usize,
+    },
+}
+
 impl ReplaySource {
     /// Opens the collection `pvd` to draw over `model`.
     ///
@@ -35,17 +58,16 @@ impl ReplaySource {
     /// The collection cannot be read or lists no frame, the first frame cannot be read, or
     /// its point count differs from the model's node count (the message says which scene to
     /// give with `--scene`).
-    pub fn open(pvd: &Path, model: ViewModel) -> Result<Self, String> {
-        let frames = read_recording(pvd).map_err(|e| e.to_string())?;
-        let first = read_recorded_points(&frames[0].path).map_err(|e| e.to_string())?;
+    pub fn open(pvd: &Path, model: ViewModel) -> Result<Self, ReplayOpenError> {
+        let frames = read_recording(pvd)?;
+        let first = read_recorded_points(&frames[0].path)?;
         if first.len() != model.node_count {
-            return Err(format!(
-                "{}: the recording has {} nodes, the scene's model '{}' {}: give the scene it was recorded from with --scene",
-                pvd.display(),
-                first.len(),
-                model.name,
-                model.node_count
-            ));
+            return Err(ReplayOpenError::NodeCount {
+                pvd: pvd.to_path_buf(),
+                recorded: first.len(),
+                model: model.name,
+                nodes: model.node_count,
+            });
         }
         Ok(Self { model, frames, source: pvd.display().to_string(), model_sent: false, next: 0, origin: None })
     }
@@ -81,11 +103,11 @@ impl FrameSource for ReplaySource {
                 stats: None,
             }),
             Ok(points) => {
-                eprintln!("lamina-viewer: {}: {} points, skipped", recorded.path.display(), points.len());
+                tracing::warn!("{}: {} points, skipped", recorded.path.display(), points.len());
                 SourceEvent::Idle("replaying (a frame was skipped)")
             }
             Err(e) => {
-                eprintln!("lamina-viewer: {e}; skipped");
+                tracing::warn!("{e}; skipped");
                 SourceEvent::Idle("replaying (a frame was skipped)")
             }
         }

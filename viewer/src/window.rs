@@ -29,27 +29,81 @@ use crate::timing::{Samples, elapsed_ns, ms};
 use crate::view_model::Frame;
 
 /// Why the window could not run.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum WindowRunError {
     /// No event loop (no display).
+    #[error("cannot open a window: {}", short_reason(&.0.to_string()))]
     EventLoop(winit::error::EventLoopError),
     /// Window, surface or GPU setup failed.
-    Setup(String),
+    #[error("cannot set up the window: {0}")]
+    Setup(WindowSetupError),
     /// A screenshot could not be written.
-    Screenshot(String),
+    #[error("cannot write the screenshot: {}: {error}", .path.display())]
+    Screenshot {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        error: ScreenshotError,
+    },
 }
 
-impl core::fmt::Display for WindowRunError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::EventLoop(e) => write!(f, "cannot open a window: {}", short_reason(&e.to_string())),
-            Self::Setup(e) => write!(f, "cannot set up the window: {e}"),
-            Self::Screenshot(e) => write!(f, "cannot write the screenshot: {e}"),
-        }
-    }
+/// Why the window, its surface or its GPU could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum WindowSetupError {
+    /// The window could not be created.
+    #[error("{0}")]
+    Window(winit::error::OsError),
+    /// The window's drawing surface could not be created.
+    #[error("{0}")]
+    Surface(wgpu::CreateSurfaceError),
+    /// No GPU adapter or device for the surface.
+    #[error("{0}")]
+    Gpu(crate::render::RendererCreateError),
+    /// The surface has no configuration the adapter supports.
+    #[error("the surface does not suit the adapter")]
+    UnsuitedSurface,
 }
 
-impl core::error::Error for WindowRunError {}
+/// Why a screenshot could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ScreenshotError {
+    /// The window is not open yet.
+    #[error("no window yet")]
+    NoWindow,
+    /// No frame has been drawn yet (no camera).
+    #[error("nothing drawn yet")]
+    NothingDrawn,
+    /// The offscreen target could not be made.
+    #[error("no offscreen target")]
+    NoTarget,
+    /// The pixels could not be read back from the GPU.
+    #[error("{0}")]
+    Read(crate::render::FrameReadError),
+    /// The folder could not be created.
+    #[error("{}: {error}", .dir.display())]
+    Folder {
+        /// The folder.
+        dir: PathBuf,
+        /// The operating system's error.
+        error: std::io::Error,
+    },
+    /// The PNG could not be written.
+    #[error("{0}")]
+    Png(crate::png_io::PngIoError),
+}
+
+/// Why the grab's tool port could not be opened.
+#[derive(Debug, thiserror::Error)]
+enum ToolPortError {
+    #[error("bridge: {0}")]
+    Bridge(lamina_bridge::BridgeOpenError),
+    #[error("tool service: {0}")]
+    Service(lamina_bridge::PortCreateError),
+    #[error("thread: {0}")]
+    Thread(std::io::Error),
+    #[error("the tool thread stopped")]
+    Stopped,
+}
 
 /// What the window does besides drawing.
 #[derive(Debug, Clone, Default)]
@@ -101,7 +155,7 @@ impl ToolPort {
     /// How often the held grasp is re-sent (5 ms: 200 Hz).
     const PERIOD: Duration = Duration::from_millis(5);
 
-    fn open(prefix: &str) -> Result<Self, String> {
+    fn open(prefix: &str) -> Result<Self, ToolPortError> {
         let shared = Arc::new(std::sync::Mutex::new(PortState::default()));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         let prefix = prefix.to_string();
@@ -110,10 +164,10 @@ impl ToolPort {
             .name("viewer-tool".into())
             .spawn(move || {
                 let opened = lamina_bridge::Bridge::open(&lamina_bridge::BridgeConfig::with_prefix(&prefix))
-                    .map_err(|e| format!("bridge: {e}"))
+                    .map_err(ToolPortError::Bridge)
                     .and_then(|bridge| {
                         let publisher =
-                            lamina_bridge::ToolPublisher::create(&bridge).map_err(|e| format!("tool service: {e}"))?;
+                            lamina_bridge::ToolPublisher::create(&bridge).map_err(ToolPortError::Service)?;
                         Ok((bridge, publisher))
                     });
                 let (_bridge, publisher) = match opened {
@@ -159,11 +213,11 @@ impl ToolPort {
                 }
                 (sent, failures)
             })
-            .map_err(|e| format!("thread: {e}"))?;
+            .map_err(ToolPortError::Thread)?;
         match ready_rx.recv() {
             Ok(Ok(())) => Ok(Self { shared, thread: Some(thread) }),
             Ok(Err(e)) => Err(e),
-            Err(_) => Err("the tool thread stopped".into()),
+            Err(_) => Err(ToolPortError::Stopped),
         }
     }
 
@@ -236,18 +290,18 @@ struct App<'a> {
 }
 
 impl App<'_> {
-    fn setup(&mut self, event_loop: &ActiveEventLoop) -> Result<Surface, String> {
+    fn setup(&mut self, event_loop: &ActiveEventLoop) -> Result<Surface, WindowSetupError> {
         let attributes = Window::default_attributes()
             .with_title("Lamina viewer (? for keys)")
             .with_inner_size(PhysicalSize::new(self.options.width, self.options.height));
-        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| e.to_string())?);
+        let window = Arc::new(event_loop.create_window(attributes).map_err(WindowSetupError::Window)?);
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let surface = instance.create_surface(window.clone()).map_err(|e| e.to_string())?;
-        let gpu = GpuContext::with_instance(instance, Some(&surface)).map_err(|e| e.to_string())?;
+        let surface = instance.create_surface(window.clone()).map_err(WindowSetupError::Surface)?;
+        let gpu = GpuContext::with_instance(instance, Some(&surface)).map_err(WindowSetupError::Gpu)?;
         let size = window.inner_size();
         let mut config = surface
             .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
-            .ok_or("the surface does not suit the adapter")?;
+            .ok_or(WindowSetupError::UnsuitedSurface)?;
         let caps = surface.get_capabilities(&gpu.adapter);
         if let Some(srgb) = caps.formats.iter().copied().find(wgpu::TextureFormat::is_srgb) {
             config.format = srgb;
@@ -301,8 +355,8 @@ impl App<'_> {
                 let dir = self.window.out_dir.clone().unwrap_or_else(|| PathBuf::from("."));
                 let path = next_screenshot_path(&dir, &mut self.screenshots);
                 match self.screenshot(&path) {
-                    Ok(()) => println!("screenshot: {}", path.display()),
-                    Err(e) => eprintln!("lamina-viewer: screenshot {}: {e}", path.display()),
+                    Ok(()) => tracing::info!("screenshot: {}", path.display()),
+                    Err(e) => tracing::error!("screenshot {}: {e}", path.display()),
                 }
             }
             Some(Effect::GrabStart(x, y)) => self.grab_start(x, y),
@@ -365,7 +419,7 @@ impl App<'_> {
             match ToolPort::open(&prefix) {
                 Ok(port) => self.tool = Some(port),
                 Err(e) => {
-                    eprintln!("lamina-viewer: grab: cannot publish tool commands: {e}");
+                    tracing::error!("grab: cannot publish tool commands: {e}");
                     return;
                 }
             }
@@ -459,8 +513,8 @@ impl App<'_> {
                 && self.drawn >= n
             {
                 match self.screenshot(&path) {
-                    Ok(()) => println!("screenshot after {} frames: {}", self.drawn, path.display()),
-                    Err(e) => self.error = Some(WindowRunError::Screenshot(format!("{}: {e}", path.display()))),
+                    Ok(()) => tracing::info!("screenshot after {} frames: {}", self.drawn, path.display()),
+                    Err(error) => self.error = Some(WindowRunError::Screenshot { path, error }),
                 }
                 self.quit = true;
             }
@@ -468,15 +522,15 @@ impl App<'_> {
     }
 
     /// Draws the current view offscreen at the window's size and writes it to `path`.
-    fn screenshot(&mut self, path: &Path) -> Result<(), String> {
-        let s = self.surface.as_mut().ok_or("no window yet")?;
-        let camera = self.controls.state.camera.ok_or("nothing drawn yet")?.camera();
+    fn screenshot(&mut self, path: &Path) -> Result<(), ScreenshotError> {
+        let s = self.surface.as_mut().ok_or(ScreenshotError::NoWindow)?;
+        let camera = self.controls.state.camera.ok_or(ScreenshotError::NothingDrawn)?.camera();
         let (w, h) = (s.config.width, s.config.height);
         if s.shot.as_ref().is_none_or(|(r, _)| r.size() != (w, h)) {
             let renderer = Renderer::new(&s.gpu, OFFSCREEN_FORMAT, w, h, self.options.samples);
             s.shot = Some((renderer, Offscreen::new(&s.gpu, w, h)));
         }
-        let (renderer, target) = s.shot.as_mut().ok_or("no offscreen target")?;
+        let (renderer, target) = s.shot.as_mut().ok_or(ScreenshotError::NoTarget)?;
         let input = DrawInput {
             mesh: &self.composer.mesh,
             camera: &camera,
@@ -487,11 +541,11 @@ impl App<'_> {
         renderer.draw(&s.gpu, target.view(), &input);
         wait_idle(&s.gpu);
         let mut pixels = Vec::new();
-        target.read(&s.gpu, &mut pixels).map_err(|e| e.to_string())?;
+        target.read(&s.gpu, &mut pixels).map_err(ScreenshotError::Read)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|error| ScreenshotError::Folder { dir: dir.to_path_buf(), error })?;
         }
-        write_png(path, w, h, &pixels).map_err(|e| e.to_string())
+        write_png(path, w, h, &pixels).map_err(ScreenshotError::Png)
     }
 }
 
