@@ -261,11 +261,11 @@ pub struct ScriptStep {
 /// parts of a drag spread over frames: `FRAME:down:BUTTON:X:Y`, `FRAME:move:X:Y`,
 /// `FRAME:up:BUTTON` (X, Y pixels from the top-left corner). BUTTON: `left`, `right`,
 /// `middle`, `shift-left` or `ctrl-left`. Example: `2:key:1;3:drag:left:120:-40;4:wheel:2`.
-pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>, String> {
+pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>, ScriptParseError> {
     let mut steps = Vec::new();
     for item in text.split(';').map(str::trim).filter(|s| !s.is_empty()) {
         let parts: Vec<&str> = item.split(':').collect();
-        let bad = |why: &str| format!("script step '{item}': {why}");
+        let bad = |why: &str| ScriptParseError { step: item.to_string(), why: why.to_string() };
         let frame = parts[0].parse::<u64>().map_err(|_| bad("expected FRAME:WHAT:…, FRAME a whole number"))?;
         let number = |s: &str| s.parse::<f32>().ok().filter(|v| v.is_finite()).ok_or_else(|| bad("not a number"));
         let inputs = match parts.get(1..).unwrap_or_default() {
@@ -303,6 +303,16 @@ pub fn parse_script(text: &str, viewport: (f32, f32)) -> Result<Vec<ScriptStep>,
     }
     steps.sort_by_key(|s| s.frame);
     Ok(steps)
+}
+
+/// A `--script` step that does not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("script step '{step}': {why}")]
+pub struct ScriptParseError {
+    /// The step as written.
+    pub step: String,
+    /// What is wrong with it.
+    pub why: String,
 }
 
 const BUTTONS: &str = "button must be left, right, middle, shift-left or ctrl-left";

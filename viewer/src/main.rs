@@ -460,9 +460,9 @@ fn run(args: &Args) -> anyhow::Result<()> {
         }
     };
     let script = match &args.script {
-        Some(text) => lamina_viewer::controls::parse_script(text, (args.size.0 as f32, args.size.1 as f32))
-            .map_err(anyhow::Error::msg)
-            .context("--script")?,
+        Some(text) => {
+            lamina_viewer::controls::parse_script(text, (args.size.0 as f32, args.size.1 as f32)).context("--script")?
+        }
         None => Vec::new(),
     };
     let window_options = WindowOptions {
