@@ -245,52 +245,61 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
         "model", "nodes", "springs", "solver", "thr", "steps/tick", "p50 us", "p99 us", "max us", "ticks", "vs expl."
     );
     let mut rows: Vec<Row> = Vec::new();
-    for (scene, model) in build_models(opts) {
+    let models = build_models(opts);
+    // Moves between models, never while one is timed.
+    let bar = super::progress::steps(models.len() as u64, "bench capacity");
+    for (scene, model) in models {
+        bar.set_message(scene.name.clone());
         let model = match model {
             Ok(m) => m,
             Err(e) => {
-                println!("{}: model not built: {e}", scene.name);
+                bar.suspend(|| println!("{}: model not built: {e}", scene.name));
+                bar.inc(1);
                 continue;
             }
         };
         let mut list = configurations(&scene, &model, opts);
         measure(&mut list, opts);
+        bar.inc(1);
         let reference = list
             .iter()
             .find(|t| t.row.integrator == IntegratorKind::SymplecticEuler && t.row.threads == 1)
             .map(|t| t.row.quantile_us(0.5));
-        for t in list {
-            let r = t.row;
-            if let Some(e) = &r.error {
-                println!(
-                    "{:<22} {:>7} {:>8} {:<18} {:>3} {e}",
-                    r.model,
-                    r.nodes,
-                    r.springs,
-                    r.integrator.name(),
-                    r.threads
-                );
-            } else {
-                let p50 = r.quantile_us(0.5);
-                let ratio = reference.map(|x| format!("{:.2}x", x / p50)).unwrap_or_default();
-                println!(
-                    "{:<22} {:>7} {:>8} {:<18} {:>3} {:>11} {:>9.1} {:>9.1} {:>9.1} {:>7} {:>8}",
-                    r.model,
-                    r.nodes,
-                    r.springs,
-                    r.integrator.name(),
-                    r.threads,
-                    r.steps,
-                    p50,
-                    r.quantile_us(0.99),
-                    r.quantile_us(1.0),
-                    r.samples_ns.len(),
-                    ratio
-                );
+        bar.suspend(|| {
+            for t in list {
+                let r = t.row;
+                if let Some(e) = &r.error {
+                    println!(
+                        "{:<22} {:>7} {:>8} {:<18} {:>3} {e}",
+                        r.model,
+                        r.nodes,
+                        r.springs,
+                        r.integrator.name(),
+                        r.threads
+                    );
+                } else {
+                    let p50 = r.quantile_us(0.5);
+                    let ratio = reference.map(|x| format!("{:.2}x", x / p50)).unwrap_or_default();
+                    println!(
+                        "{:<22} {:>7} {:>8} {:<18} {:>3} {:>11} {:>9.1} {:>9.1} {:>9.1} {:>7} {:>8}",
+                        r.model,
+                        r.nodes,
+                        r.springs,
+                        r.integrator.name(),
+                        r.threads,
+                        r.steps,
+                        p50,
+                        r.quantile_us(0.99),
+                        r.quantile_us(1.0),
+                        r.samples_ns.len(),
+                        ratio
+                    );
+                }
+                rows.push(r);
             }
-            rows.push(r);
-        }
+        });
     }
+    bar.finish_and_clear();
     println!("\nlargest model within half the budget (p99 <= {:.0} us):", BUDGET_US / 2.0);
     for &integrator in &opts.integrators {
         for &threads in &opts.threads {
@@ -305,7 +314,11 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
     }
     write_csv(&opts.out.join("capacity.csv"), &rows)?;
     write_plot(&opts.out.join("capacity.png"), &rows, opts)?;
-    println!("\nwritten: {} and {}", opts.out.join("capacity.csv").display(), opts.out.join("capacity.png").display());
+    tracing::info!(
+        "written: {} and {}",
+        opts.out.join("capacity.csv").display(),
+        opts.out.join("capacity.png").display()
+    );
     Ok(())
 }
 

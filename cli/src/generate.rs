@@ -28,15 +28,18 @@ pub fn parse_grid(text: &str) -> Result<GridSize, String> {
 pub fn cylinder(grid: GridSize, length: f64, out: &Path, vtu: Option<&Path>) -> Result<(), String> {
     let spec = CylinderLimb { grid, length, ..CylinderLimb::default() };
     let start = Instant::now();
+    let bar = super::progress::steps(0, "generate");
     let mut last_stage = String::new();
     let mut progress = |stage: &str, done: usize, total: usize| {
         if stage != last_stage {
-            eprintln!("  {stage} ({total} items)");
+            bar.set_message(stage.to_string());
+            bar.set_length(total as u64);
             last_stage = stage.to_string();
         }
-        let _ = done;
+        bar.set_position(done as u64);
     };
     let model = generate_with_progress(&spec, &Materials::default(), Some(&mut progress)).map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
     let generated = start.elapsed();
     lamina_core::io::write_model(&model, out).map_err(|e| e.to_string())?;
     if let Some(v) = vtu {
@@ -145,6 +148,6 @@ pub fn anatomy(scene: &Path, out: &Path, vtu: Option<&Path>) -> Result<(), Strin
     if let Some(v) = vtu {
         lamina_core::io::write_vtu(&model, None, v).map_err(|e| e.to_string())?;
     }
-    println!("wrote {}{}", out.display(), vtu.map_or(String::new(), |v| format!(" and {}", v.display())));
+    tracing::info!("wrote {}{}", out.display(), vtu.map_or(String::new(), |v| format!(" and {}", v.display())));
     Ok(())
 }

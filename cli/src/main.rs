@@ -12,6 +12,7 @@ mod haptic_link;
 mod machine;
 mod plot;
 mod profile;
+mod progress;
 mod publish;
 mod record;
 mod run;
@@ -22,6 +23,7 @@ mod yardstick_cmd;
 use clap::{Parser, Subcommand};
 use lamina_core::solver::{IntegratorKind, SimdLevel};
 use lamina_core::yardstick::LatticeSize;
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -31,6 +33,10 @@ use std::time::Duration;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Diagnostics shown on stderr: error, warn, info, debug or trace. Results (tables,
+    /// summaries, JSON) go to stdout whatever the level.
+    #[arg(long, global = true, value_name = "LEVEL", default_value = "info")]
+    log_level: tracing::Level,
 }
 
 #[derive(Subcommand)]
@@ -317,8 +323,8 @@ fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<V
     s.split(',').map(|p| f(p.trim()).ok_or_else(|| format!("unknown {what} '{p}'"))).collect()
 }
 
-fn run(cli: Cli) -> Result<(), String> {
-    match cli.command {
+fn run(command: Command) -> Result<(), String> {
+    match command {
         Command::Inspect { file } => {
             let report = lamina_mesh::inspect(&file).map_err(|e| e.to_string())?;
             println!("{report}");
@@ -447,10 +453,18 @@ fn run(cli: Cli) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(cli.log_level)
+        .with_target(false)
+        .without_time()
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+    match run(cli.command).map_err(anyhow::Error::msg) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("lamina: {e}");
+            eprintln!("lamina: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -79,7 +79,9 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
     let mut rows: Vec<Row> = Vec::new();
     // The real core, with its physics.
     let mut core_report = None;
+    let bar = super::progress::steps(3 + 2 * sizes.len() as u64, "profile");
     for mode in ["poll", "block"] {
+        bar.set_message(format!("core, {mode} subscriber ({seconds} s)"));
         let prefix = format!("profile_core_{mode}_{pid}");
         let subs = listeners(&prefix, seconds, out, "core", mode)?;
         let report = out.join(format!("core_report_{mode}.json"));
@@ -101,16 +103,20 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
         if mode == "block" {
             core_report = Some(json(&report)?);
         }
+        bar.inc(1);
     }
+    bar.set_message(format!("haptics against the core ({seconds} s)"));
     // The haptics process against the real core: a scripted device pressing and pulling
     // the skin, device loop at 4 kHz on the first CPU, the core on the last.
     let haptics = match super::demo::haptics_args(scene)? {
         Some(args) => Some(profile_haptics(scene, &args, seconds, out)?),
         None => None,
     };
+    bar.inc(1);
     // The synthetic publisher at each node count.
     let probe = sibling("lamina-publish-probe")?;
     for (&n, mode) in sizes.iter().flat_map(|n| [(n, "poll"), (n, "block")]) {
+        bar.set_message(format!("probe, {n} nodes, {mode} subscriber ({seconds} s)"));
         let prefix = format!("profile_probe_{n}_{mode}_{pid}");
         let subs = listeners(&prefix, seconds, out, &format!("probe_{n}"), mode)?;
         let child = Command::new(&probe)
@@ -134,7 +140,9 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
             wait(child, "lamina-listen")?;
             rows.push(Row { source: "probe".into(), nodes: n, mode, report: json(&json_path)?, histogram: hist });
         }
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
         "cross-process profile; machine: {}; load average {}",
@@ -217,7 +225,7 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
         );
     }
     plot(&out.join("latency_percentiles.png"), &rows)?;
-    println!("\nreports, histograms (CSV) and latency_percentiles.png written to {}", out.display());
+    tracing::info!("reports, histograms (CSV) and latency_percentiles.png written to {}", out.display());
     Ok(())
 }
 

@@ -368,13 +368,13 @@ fn write_outputs(
             text.push_str(&format!("{},{},{},{},{}\n", r.tick, r.wake_ns, r.lateness_ns, r.compute_ns, r.send_ns));
         }
         std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-        println!("per-tick records written to {}", path.display());
+        tracing::info!("per-tick records written to {}", path.display());
     }
     if let Some(path) = &opts.report {
         let report = context.report(&monitor.report_json());
         let text = serde_json::to_string_pretty(&report).unwrap_or_default() + "\n";
         std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-        println!("report written to {}", path.display());
+        tracing::info!("report written to {}", path.display());
     }
     Ok(())
 }

@@ -126,6 +126,7 @@ pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<()
     let effects = scene.effects.clone();
     println!("accuracy versus cost; machine: {}", machine::describe());
     let mut all = Vec::new();
+    let bar = super::progress::steps(3, "study accuracy");
     let press = format!(
         "{} pressed {:.0} mm by the sphere tool and released, x({:.3} s) against an adaptive f64 reference",
         scene.name,
@@ -141,11 +142,14 @@ pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<()
         ),
         (AccuracyCase::Model, press, "model_press"),
     ] {
+        bar.set_message(file);
         let study = accuracy_study(case, &model, &effects, t_end, quick).map_err(|e| format!("{title}: {e}"))?;
-        print_rows(&title, &study);
+        bar.inc(1);
+        bar.suspend(|| print_rows(&title, &study));
         plot(&out.join(format!("accuracy_{file}.png")), &title, &study.rows)?;
         all.extend(study.rows);
     }
+    bar.finish_and_clear();
     write_csv(&out.join("accuracy.csv"), &all)?;
     let within: Vec<&AccuracyRow> = all
         .iter()
@@ -169,7 +173,7 @@ pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<()
             "\nno integrator ran the model within the 1 kHz budget ({REALTIME_BUDGET_S_PER_S} s/s) on this machine"
         );
     }
-    println!("wrote {}/accuracy.csv and accuracy_*.png", out.display());
+    tracing::info!("wrote {}/accuracy.csv and accuracy_*.png", out.display());
     Ok(())
 }
 
@@ -196,9 +200,17 @@ pub fn stability(json: bool) -> Result<(), String> {
             "wall s"
         );
     }
+    // Silent with --json (the table prints as it goes otherwise): a bar shows the cases.
+    let bar = if json {
+        super::progress::steps((stability_cases().len() * IntegratorKind::ALL.len()) as u64, "study stability")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
     for case in stability_cases() {
         for k in IntegratorKind::ALL {
+            bar.set_message(format!("{} {k:?}", case.name));
             let r = run_case(&case, k);
+            bar.inc(1);
             if !json {
                 println!(
                     "{:<33} {:<17} {:>5} {:>7.3} {:>6} {:>9.4} {:>8.2} {:>9.2e} {:>6} {:>9.2e} {:>5} {:>5} {:>5} {:>6.2}",
@@ -221,6 +233,7 @@ pub fn stability(json: bool) -> Result<(), String> {
             rows.push(r);
         }
     }
+    bar.finish_and_clear();
     if json {
         println!("{}", serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?);
     } else {
@@ -252,9 +265,17 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     let mut csv = String::from("scene,site,depth_m,force_n,effective_modulus_pa\n");
     let mut series = Vec::new();
     let mut radius_m = 0.012;
-    println!("indentation: a sphere lowered 1 mm at a time (10 mm/s, each depth held 0.2 s), force along the press");
+    let bar = super::progress::steps(loaded.len() as u64, "study indentation");
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    let mut measured = Vec::new();
     for scene in &loaded {
-        let (radius, curves) = indent_scene(scene, sites, depth_mm).map_err(|e| e.to_string())?;
+        bar.set_message(scene.name.clone());
+        measured.push(indent_scene(scene, sites, depth_mm).map_err(|e| format!("{}: {e}", scene.name))?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!("indentation: a sphere lowered 1 mm at a time (10 mm/s, each depth held 0.2 s), force along the press");
+    for (scene, (radius, curves)) in loaded.iter().zip(measured) {
         radius_m = radius;
         println!("\n{} (sphere radius {:.1} mm)", scene.name, radius * 1e3);
         print!("{:<44}", "site \\ depth mm");
@@ -291,6 +312,6 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     std::fs::write(&csv_path, csv).map_err(|e| format!("{}: {e}", csv_path.display()))?;
     let png = out.join("indentation.png");
     log_log_lines(&png, "indentation: force against depth", "depth (mm)", "force (N)", &series, true)?;
-    println!("\nwritten: {} and {}", csv_path.display(), png.display());
+    tracing::info!("written: {} and {}", csv_path.display(), png.display());
     Ok(())
 }

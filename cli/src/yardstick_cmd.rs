@@ -33,6 +33,21 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
             "size", "nodes", "springs", "prec", "implementation", "thr", "ms/step", "ns/spr-st", "Mspring/s"
         );
     }
+    // Silent with --json (the table prints as it goes otherwise): a bar counts the
+    // configurations, moving between them, never while one is timed.
+    let bar = if opts.json {
+        let mut imps = implementations(&opts.levels, opts.streamed);
+        if !opts.reference {
+            imps.remove(0);
+        }
+        let per_precision: usize = imps
+            .iter()
+            .map(|&imp| if imp == yardstick::YardstickImpl::Reference { 1 } else { opts.threads.len() })
+            .sum();
+        super::progress::steps((opts.sizes.len() * opts.precisions.len() * per_precision) as u64, "bench yardstick")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
     for &size in &opts.sizes {
         for &precision in &opts.precisions {
             let mut imps = implementations(&opts.levels, opts.streamed);
@@ -44,6 +59,7 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
                     if imp == yardstick::YardstickImpl::Reference { vec![1] } else { opts.threads.clone() };
                 for threads in thread_list {
                     let row = time_config(size, precision, imp, threads, opts.batch);
+                    bar.inc(1);
                     if !opts.json {
                         println!(
                             "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10.3} {:>9.3} {:>10.1}",
@@ -64,6 +80,7 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
             }
         }
     }
+    bar.finish_and_clear();
     let mut checks: Vec<ChecksumRow> = Vec::new();
     for &precision in &opts.precisions {
         if opts.reference {
@@ -138,7 +155,7 @@ pub fn write_csv(
     std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))?;
     let model = yardstick::lattice_model(size);
     let c = yardstick::checksum(&model, |i| pos[i]);
-    eprintln!(
+    tracing::info!(
         "wrote {} rows to {}; sum_u.y = {:.9e} m, max|u| = {:.6e} m, rms|u| = {:.6e} m",
         pos.len(),
         out.display(),
