@@ -162,7 +162,7 @@ mod tests {
         }
         assert!(matches!(source.next_event(Duration::from_millis(1)), SourceEvent::Idle(_)));
         let block = lamina_core::scene::layered_block(&lamina_core::scene::BlockSpec::default());
-        let err = ReplaySource::open(&pvd, ViewModel::from_core_model(&block)).unwrap_err();
+        let err = ReplaySource::open(&pvd, ViewModel::from_core_model(&block)).unwrap_err().to_string();
         assert!(err.contains("the recording has 1032 nodes") && err.contains("1728"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
