@@ -73,9 +73,10 @@ struct Args {
     /// Write every Nth frame to --out.
     #[arg(long, default_value_t = 1)]
     every: u64,
-    /// Scene file the core runs (TOML): supplies grids and springs the wire does not carry.
-    /// Default: the built-in default scene, used when its node count matches the core's.
-    #[arg(long)]
+    /// With --replay: the scene the recording was made with (TOML), whose grids and springs
+    /// are drawn. Default: the built-in default scene. A live core needs none: its topology
+    /// message carries the whole model.
+    #[arg(long, requires = "replay")]
     scene: Option<PathBuf>,
     /// Samples per pixel: 1 or 4.
     #[arg(long, default_value_t = 4, value_parser = parse_samples)]
@@ -171,8 +172,8 @@ fn options(args: &Args) -> ViewerOptions {
     }
 }
 
-/// The full model for the live source: the scene the core runs.
-fn reference_model(args: &Args) -> Result<ViewModel, String> {
+/// The model a recording was made with: the scene's.
+fn replay_model(args: &Args) -> Result<ViewModel, String> {
     use lamina_core::scene::Scene;
     let scene = match &args.scene {
         Some(path) => Scene::load(path).map_err(|e| e.to_string())?,
@@ -187,15 +188,10 @@ fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
         return Ok(Box::new(SyntheticSource::default()));
     }
     if let Some(pvd) = &args.replay {
-        let model = reference_model(args)?;
+        let model = replay_model(args)?;
         return Ok(Box::new(lamina_viewer::replay::ReplaySource::open(pvd, model)?));
     }
-    let reference = match reference_model(args) {
-        Ok(m) => Some(m),
-        Err(e) if args.scene.is_some() => return Err(e),
-        Err(_) => None,
-    };
-    Ok(Box::new(LiveSource::open(&args.prefix, reference).map_err(|e| e.to_string())?))
+    Ok(Box::new(LiveSource::open(&args.prefix).map_err(|e| e.to_string())?))
 }
 
 /// Rolling figures for the overlay and the exit report.

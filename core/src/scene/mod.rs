@@ -18,4 +18,4 @@ pub use realtime_section::{OverrunChoice, RealtimeSettings};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::SceneSprings;
-pub use tool_settings::{ToolSettings, ToolSource};
+pub use tool_settings::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource};
