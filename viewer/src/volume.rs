@@ -14,6 +14,7 @@
 //! Voxel order everywhere: x fastest, then y, then z.
 
 use core::fmt;
+use core::ops::Add;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -475,9 +476,10 @@ fn worley(p: Vec3, seed: u32) -> (f32, f32) {
             for dx in -1..=1 {
                 let c = f + Vec3::new(dx as f32, dy as f32, dz as f32);
                 let (x, y, z) = (c.x as i32, c.y as i32, c.z as i32);
+                // One hash gives the feature point's three coordinates (10 bits each).
                 let h = hash(x, y, z, seed);
-                let q =
-                    c + Vec3::new(unit(h), unit(hash(x, y, z, seed ^ 0x5bd1_e995)), unit(h.rotate_left(13) ^ 0x9e37));
+                let bits = Vec3::new((h & 1023) as f32, ((h >> 10) & 1023) as f32, ((h >> 20) & 1023) as f32);
+                let q = c + bits / 1024.0;
                 let d = q.distance(p);
                 if d < d1 {
                     (d1, d2) = (d, d1);
@@ -560,54 +562,47 @@ pub fn bake_procedural(model: &ViewModel, rest: &[Vec3], voxels: u64, threads: u
         1 => Vec3::Y,
         _ => Vec3::Z,
     };
-    // Uniform bins of 4 voxels holding the samples, searched ring by ring.
-    let bin = voxel * 4.0;
+    // Uniform bins of 8 voxels. Each bin lists the samples of its 3 × 3 × 3 neighbourhood
+    // that can be the nearest for some point in it (nearest possible distance to the bin no
+    // more than the smallest farthest distance): a voxel checks those alone. A bin with no
+    // sample around is outside the tissue.
+    let bin = voxel * 8.0;
     let bins = (box_size / bin).ceil().as_ivec3().max(glam::IVec3::ONE);
     let bin_of = |p: Vec3| ((p - box_min) / bin).floor().as_ivec3().clamp(glam::IVec3::ZERO, bins - 1);
     let flat = |b: glam::IVec3| (b.x + bins.x * (b.y + bins.y * b.z)) as usize;
-    let mut starts = vec![0u32; (bins.x * bins.y * bins.z) as usize + 1];
-    for s in &samples {
-        starts[flat(bin_of(s.0)) + 1] += 1;
-    }
-    for i in 1..starts.len() {
-        starts[i] += starts[i - 1];
-    }
-    let mut fill = starts.clone();
-    let mut order = vec![0u32; samples.len()];
+    let bin_count = (bins.x * bins.y * bins.z) as usize;
+    let mut in_bin: Vec<Vec<u32>> = vec![Vec::new(); bin_count];
     for (k, s) in samples.iter().enumerate() {
-        let b = flat(bin_of(s.0));
-        order[fill[b] as usize] = k as u32;
-        fill[b] += 1;
+        in_bin[flat(bin_of(s.0))].push(k as u32);
+    }
+    let mut candidates: Vec<Vec<u32>> = vec![Vec::new(); bin_count];
+    for z in 0..bins.z {
+        for y in 0..bins.y {
+            for x in 0..bins.x {
+                let b = glam::IVec3::new(x, y, z);
+                let lo = box_min + b.as_vec3() * bin;
+                let hi = lo + Vec3::splat(bin);
+                let near: Vec<u32> = (-1..=1)
+                    .flat_map(|dz| {
+                        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dx| b + glam::IVec3::new(dx, dy, dz)))
+                    })
+                    .filter(|n| n.cmpge(glam::IVec3::ZERO).all() && n.cmplt(bins).all())
+                    .flat_map(|n| in_bin[flat(n)].iter().copied())
+                    .collect();
+                let min_d = |p: Vec3| (p.clamp(lo, hi) - p).length();
+                let max_d = |p: Vec3| (p - (lo + hi) * 0.5).abs().add(Vec3::splat(bin * 0.5)).length();
+                let bound = near.iter().map(|&k| max_d(samples[k as usize].0)).fold(f32::INFINITY, f32::min);
+                candidates[flat(b)] = near.into_iter().filter(|&k| min_d(samples[k as usize].0) <= bound).collect();
+            }
+        }
     }
     let nearest = |p: Vec3| -> Option<Class> {
-        let centre = bin_of(p);
         let mut best: Option<(f32, Class)> = None;
-        for ring in 0..=3i32 {
-            if let Some((d2, _)) = best
-                && d2.sqrt() < (ring - 1).max(0) as f32 * bin
-            {
-                break;
-            }
-            for z in -ring..=ring {
-                for y in -ring..=ring {
-                    for x in -ring..=ring {
-                        if x.abs().max(y.abs()).max(z.abs()) != ring {
-                            continue;
-                        }
-                        let b = centre + glam::IVec3::new(x, y, z);
-                        if b.cmplt(glam::IVec3::ZERO).any() || b.cmpge(bins).any() {
-                            continue;
-                        }
-                        let f = flat(b);
-                        for &k in &order[starts[f] as usize..starts[f + 1] as usize] {
-                            let (q, class) = samples[k as usize];
-                            let d2 = q.distance_squared(p);
-                            if best.is_none_or(|(b2, _)| d2 < b2) {
-                                best = Some((d2, class));
-                            }
-                        }
-                    }
-                }
+        for &k in &candidates[flat(bin_of(p))] {
+            let (q, class) = samples[k as usize];
+            let d2 = q.distance_squared(p);
+            if best.is_none_or(|(b2, _)| d2 < b2) {
+                best = Some((d2, class));
             }
         }
         best.map(|b| b.1)
