@@ -393,24 +393,40 @@ fn tissue_samples(model: &ViewModel, rest: &[Vec3]) -> Vec<(Vec3, Class)> {
             .collect(),
         _ => Vec::new(),
     };
-    let fractions = [0.125f32, 0.375, 0.625, 0.875];
+    let fractions = [0.1f32, 0.3, 0.5, 0.7, 0.9];
     if nested.len() >= 2 {
-        let outer = &model.grids[0];
-        out.extend(outer.nodes.iter().map(|&i| (rest[i as usize], Class::Tissue(Tissue::Skin))));
+        // Each grid cell is sampled at 2 × 2 points (bilinear between its corners), so the
+        // samples are closer around and along the limb than the grid points.
+        let (cols, rows) = (model.grids[0].cols, model.grids[0].rows);
+        let at = |g: usize, c: usize, r: usize, u: f32, v: f32| {
+            let grid = &model.grids[g];
+            let p = |c: usize, r: usize| rest[grid.nodes[r.min(rows - 1) * cols + c % cols] as usize];
+            p(c, r).lerp(p(c + 1, r), u).lerp(p(c, r + 1).lerp(p(c + 1, r + 1), u), v)
+        };
+        let mut lattice = Vec::with_capacity(cols * rows * 4);
+        for r in 0..rows {
+            for c in 0..cols {
+                for (u, v) in [(0.0, 0.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5)] {
+                    if r + 1 < rows || v == 0.0 {
+                        lattice.push((c, r, u, v));
+                    }
+                }
+            }
+        }
+        out.extend(lattice.iter().map(|&(c, r, u, v)| (at(0, c, r, u, v), Class::Tissue(Tissue::Skin))));
         for pair in nested.windows(2) {
-            let (a, b) = (&model.grids[pair[0]], &model.grids[pair[1]]);
-            let tissue = if pair[0] == 0 { Tissue::Skin } else { a.beneath };
-            for (&na, &nb) in a.nodes.iter().zip(&b.nodes) {
-                let (pa, pb) = (rest[na as usize], rest[nb as usize]);
+            let tissue = if pair[0] == 0 { Tissue::Skin } else { model.grids[pair[0]].beneath };
+            for &(c, r, u, v) in &lattice {
+                let (pa, pb) = (at(pair[0], c, r, u, v), at(pair[1], c, r, u, v));
                 out.extend(fractions.iter().map(|&t| (pa.lerp(pb, t), Class::Tissue(tissue))));
             }
         }
-        let inner = &model.grids[*nested.last().unwrap_or(&0)];
-        for r in 0..inner.rows {
-            let ring = &inner.nodes[r * inner.cols..(r + 1) * inner.cols];
-            let centre = ring.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / ring.len() as f32;
-            for &i in ring {
-                let p = rest[i as usize];
+        let last = *nested.last().unwrap_or(&0);
+        let inner = &model.grids[last];
+        for r in 0..rows {
+            let centre = (0..cols).map(|c| at(last, c, r, 0.0, 0.0)).sum::<Vec3>() / cols as f32;
+            for &(c, rr, u, v) in lattice.iter().filter(|l| l.1 == r) {
+                let p = at(last, c, rr, u, v);
                 for t in [0.0f32, 0.3, 0.6, 0.8, 0.95] {
                     let class = if t < 0.55 { Class::Marrow } else { Class::Tissue(inner.beneath) };
                     out.push((centre.lerp(p, t), class));
@@ -562,11 +578,11 @@ pub fn bake_procedural(model: &ViewModel, rest: &[Vec3], voxels: u64, threads: u
         1 => Vec3::Y,
         _ => Vec3::Z,
     };
-    // Uniform bins of 8 voxels. Each bin lists the samples of its 3 × 3 × 3 neighbourhood
+    // Uniform bins of 4 voxels. Each bin lists the samples of its 3 × 3 × 3 neighbourhood
     // that can be the nearest for some point in it (nearest possible distance to the bin no
     // more than the smallest farthest distance): a voxel checks those alone. A bin with no
     // sample around is outside the tissue.
-    let bin = voxel * 8.0;
+    let bin = voxel * 4.0;
     let bins = (box_size / bin).ceil().as_ivec3().max(glam::IVec3::ONE);
     let bin_of = |p: Vec3| ((p - box_min) / bin).floor().as_ivec3().clamp(glam::IVec3::ZERO, bins - 1);
     let flat = |b: glam::IVec3| (b.x + bins.x * (b.y + bins.y * b.z)) as usize;

@@ -386,3 +386,19 @@ fn bad_volume_files_fail() {
     assert!(e.contains("flat.nii") && e.contains("spacing"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn committed_phantom_reads_and_is_placed_by_its_header_works() {
+    // tests/data/phantom16.nii: 16³ uint8, 6 mm voxels centred on the origin, a layered limb
+    // along x (bone 250 inside 15 mm, muscle 140, fat 90, skin 200 to 50 mm, then 0).
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/phantom16.nii");
+    let v = read_nifti(&VolumeSpec { path, origin_m: None, window: None }).expect("the phantom reads");
+    assert_eq!((v.format, v.size), (VoxelFormat::Grey, [16, 16, 16]));
+    assert!((v.box_min + Vec3::splat(0.048)).abs().max_element() < 1e-6, "{}", v.box_min);
+    assert!((v.box_size - Vec3::splat(0.096)).abs().max_element() < 1e-6);
+    let grey = |p: Vec3| v.voxel_at(v.texcoord(p))[0];
+    assert_eq!(grey(Vec3::new(0.0, 0.003, 0.003)), 255, "bone: the maximum");
+    assert_eq!(grey(Vec3::new(0.0, 0.027, 0.003)), (140.0f32 * 255.0 / 250.0).round() as u8, "muscle");
+    assert_eq!(grey(Vec3::new(0.0, 0.045, 0.003)), (90.0f32 * 255.0 / 250.0).round() as u8, "fat");
+    assert_eq!(grey(Vec3::new(0.0, 0.045, 0.045)), 0, "outside the limb");
+}
