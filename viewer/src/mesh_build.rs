@@ -179,7 +179,9 @@ impl MeshBuilder {
             .collect();
         let samples = opts.section_samples.max(1);
         type Loops = Vec<(Tissue, SectionLoop, SectionLoop)>;
-        let loops_with = |make: &dyn Fn(&CellLayout, &[Patch], &[Patch]) -> (SectionLoop, SectionLoop)| -> Loops {
+        // The loop of one boundary and the same points at rest, from its patches.
+        type MakeLoops<'a> = &'a dyn Fn(&CellLayout, &[Patch], &[Patch]) -> (SectionLoop, SectionLoop);
+        let loops_with = |make: MakeLoops<'_>| -> Loops {
             nested
                 .iter()
                 .map(|&g| {

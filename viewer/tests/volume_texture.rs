@@ -291,7 +291,8 @@ fn cut_face_shows_skin_to_bone_in_order_works() {
     viewer.set_model(limb.view_model());
     viewer.render(&frame, &Hud::default()).expect("frame rendered");
     let bake_ms = viewer.composer().volume_bake_ns() as f64 * 1e-6;
-    eprintln!("procedural volume baked in {bake_ms:.0} ms");
+    let size = viewer.composer().drawn_volume().expect("a procedural volume").size;
+    eprintln!("procedural volume {size:?} baked in {bake_ms:.0} ms");
     let (_, cut) = viewer.composer().view().expect("view fixed");
     let plane = cut.expect("the default view cuts");
     // The ray lies in the cut plane, from 3 mm above the skin's top down to the bone's axis
