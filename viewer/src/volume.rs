@@ -385,7 +385,7 @@ enum Class {
 /// grids (a limb), points between each pair of boundaries at the same grid point (the tissue
 /// beneath the outer one) and inside the innermost toward each row's centre (bone, marrow at
 /// its core), plus the outer skin's nodes; otherwise every node with its tissue.
-fn tissue_samples(model: &ViewModel, rest: &[Vec3]) -> Vec<(Vec3, Class)> {
+fn tissue_samples(model: &ViewModel, rest: &[Vec3], spacing: f32) -> Vec<(Vec3, Class)> {
     let mut out = Vec::new();
     let nested: Vec<usize> = match model.grids.first() {
         Some(outer) if outer.wrap => (0..model.grids.len())
@@ -393,44 +393,53 @@ fn tissue_samples(model: &ViewModel, rest: &[Vec3]) -> Vec<(Vec3, Class)> {
             .collect(),
         _ => Vec::new(),
     };
-    let fractions = [0.1f32, 0.3, 0.5, 0.7, 0.9];
     if nested.len() >= 2 {
-        // Each grid cell is sampled at 2 × 2 points (bilinear between its corners), so the
-        // samples are closer around and along the limb than the grid points.
+        // Each grid cell is sampled at su × sv points (bilinear between its corners) and each
+        // band at nd depths, so that samples are at most about `spacing` apart.
         let (cols, rows) = (model.grids[0].cols, model.grids[0].rows);
         let at = |g: usize, c: usize, r: usize, u: f32, v: f32| {
             let grid = &model.grids[g];
             let p = |c: usize, r: usize| rest[grid.nodes[r.min(rows - 1) * cols + c % cols] as usize];
             p(c, r).lerp(p(c + 1, r), u).lerp(p(c, r + 1).lerp(p(c + 1, r + 1), u), v)
         };
-        let mut lattice = Vec::with_capacity(cols * rows * 4);
-        for r in 0..rows {
-            for c in 0..cols {
-                for (u, v) in [(0.0, 0.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5)] {
-                    if r + 1 < rows || v == 0.0 {
-                        lattice.push((c, r, u, v));
-                    }
+        let cells = || (0..rows).flat_map(|r| (0..cols).map(move |c| (c, r)));
+        let longest = |d: (usize, usize)| {
+            cells().map(|(c, r)| at(0, c, r, 0.0, 0.0).distance(at(0, c + d.0, r + d.1, 0.0, 0.0))).fold(0.0, f32::max)
+        };
+        let count = |length: f32, lo: usize| ((length / spacing).ceil() as usize).clamp(lo, 16);
+        let (su, sv) = (count(longest((1, 0)), 2), count(longest((0, 1)), 2));
+        let mut lattice = Vec::with_capacity(cols * rows * su * sv);
+        for (c, r) in cells() {
+            for (i, j) in (0..su).flat_map(|i| (0..sv).map(move |j| (i, j))) {
+                if r + 1 < rows || j == 0 {
+                    lattice.push((c, r, i as f32 / su as f32, j as f32 / sv as f32));
                 }
             }
         }
+        let depths = |n: usize, lo: f32, hi: f32| (0..n).map(move |k| lo + (hi - lo) * (k as f32 + 0.5) / n as f32);
         out.extend(lattice.iter().map(|&(c, r, u, v)| (at(0, c, r, u, v), Class::Tissue(Tissue::Skin))));
         for pair in nested.windows(2) {
             let tissue = if pair[0] == 0 { Tissue::Skin } else { model.grids[pair[0]].beneath };
+            let thickness = cells().map(|(c, r)| at(pair[0], c, r, 0.0, 0.0).distance(at(pair[1], c, r, 0.0, 0.0)));
+            let nd = count(thickness.fold(0.0, f32::max), 3);
             for &(c, r, u, v) in &lattice {
                 let (pa, pb) = (at(pair[0], c, r, u, v), at(pair[1], c, r, u, v));
-                out.extend(fractions.iter().map(|&t| (pa.lerp(pb, t), Class::Tissue(tissue))));
+                out.extend(depths(nd, 0.0, 1.0).map(|t| (pa.lerp(pb, t), Class::Tissue(tissue))));
             }
         }
         let last = *nested.last().unwrap_or(&0);
         let inner = &model.grids[last];
-        for r in 0..rows {
-            let centre = (0..cols).map(|c| at(last, c, r, 0.0, 0.0)).sum::<Vec3>() / cols as f32;
-            for &(c, rr, u, v) in lattice.iter().filter(|l| l.1 == r) {
-                let p = at(last, c, rr, u, v);
-                for t in [0.0f32, 0.3, 0.6, 0.8, 0.95] {
-                    let class = if t < 0.55 { Class::Marrow } else { Class::Tissue(inner.beneath) };
-                    out.push((centre.lerp(p, t), class));
-                }
+        let centres: Vec<Vec3> =
+            (0..rows).map(|r| (0..cols).map(|c| at(last, c, r, 0.0, 0.0)).sum::<Vec3>() / cols as f32).collect();
+        let radius = cells().map(|(c, r)| at(last, c, r, 0.0, 0.0).distance(centres[r])).fold(0.0, f32::max);
+        let nd = count(radius, 4);
+        for &(c, r, u, v) in &lattice {
+            let centre = centres[r].lerp(centres[(r + 1).min(rows - 1)], v);
+            let p = at(last, c, r, u, v);
+            out.push((centre, Class::Marrow));
+            for t in depths(nd, 0.0, 1.0) {
+                let class = if t < 0.55 { Class::Marrow } else { Class::Tissue(inner.beneath) };
+                out.push((centre.lerp(p, t), class));
             }
         }
         return out;
@@ -560,14 +569,16 @@ fn tissue_colour(class: Class, p: Vec3, axis: Vec3, seed: u32) -> [f32; 3] {
 ///
 /// Returns `None` if `rest` is empty or not finite.
 pub fn bake_procedural(model: &ViewModel, rest: &[Vec3], voxels: u64, threads: usize) -> Option<VolumeImage> {
-    let samples = tissue_samples(model, rest);
-    let (min, max) =
-        samples.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.0), hi.max(s.0)));
-    if samples.is_empty() || !min.is_finite() || !max.is_finite() {
+    let (min, max) = rest.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    if rest.is_empty() || !min.is_finite() || !max.is_finite() {
         return None;
     }
     let extent = (max - min).max(Vec3::splat(1e-4));
     let voxel = (extent.x * extent.y * extent.z / voxels.max(1) as f32).cbrt();
+    // Samples about two bins apart (bins of 4 voxels, below): dense enough for the bands,
+    // sparse enough to bake in well under a second.
+    let bin = voxel * 4.0;
+    let samples = tissue_samples(model, rest, 2.0 * bin);
     let pad = Vec3::splat(voxel) + extent * 0.02;
     let (box_min, box_size) = (min - pad, extent + 2.0 * pad);
     let size = (box_size / voxel).ceil().as_uvec3().clamp(glam::UVec3::ONE, glam::UVec3::splat(1024)).to_array();
@@ -579,10 +590,9 @@ pub fn bake_procedural(model: &ViewModel, rest: &[Vec3], voxels: u64, threads: u
         _ => Vec3::Z,
     };
     // Uniform bins of 4 voxels. Each bin lists the samples of its 3 × 3 × 3 neighbourhood
-    // that can be the nearest for some point in it (nearest possible distance to the bin no
+    // (wider where that holds none) that can be the nearest for some point in it (nearest possible distance to the bin no
     // more than the smallest farthest distance): a voxel checks those alone. A bin with no
     // sample around is outside the tissue.
-    let bin = voxel * 4.0;
     let bins = (box_size / bin).ceil().as_ivec3().max(glam::IVec3::ONE);
     let bin_of = |p: Vec3| ((p - box_min) / bin).floor().as_ivec3().clamp(glam::IVec3::ZERO, bins - 1);
     let flat = |b: glam::IVec3| (b.x + bins.x * (b.y + bins.y * b.z)) as usize;
@@ -598,13 +608,27 @@ pub fn bake_procedural(model: &ViewModel, rest: &[Vec3], voxels: u64, threads: u
                 let b = glam::IVec3::new(x, y, z);
                 let lo = box_min + b.as_vec3() * bin;
                 let hi = lo + Vec3::splat(bin);
-                let near: Vec<u32> = (-1..=1)
-                    .flat_map(|dz| {
-                        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dx| b + glam::IVec3::new(dx, dy, dz)))
-                    })
-                    .filter(|n| n.cmpge(glam::IVec3::ZERO).all() && n.cmplt(bins).all())
-                    .flat_map(|n| in_bin[flat(n)].iter().copied())
-                    .collect();
+                let around = |reach: i32| -> Vec<u32> {
+                    (-reach..=reach)
+                        .flat_map(|dz| {
+                            (-reach..=reach)
+                                .flat_map(move |dy| (-reach..=reach).map(move |dx| b + glam::IVec3::new(dx, dy, dz)))
+                        })
+                        .filter(|n| n.cmpge(glam::IVec3::ZERO).all() && n.cmplt(bins).all())
+                        .flat_map(|n| in_bin[flat(n)].iter().copied())
+                        .collect()
+                };
+                // Sparse samples (a coarse grid): widen the neighbourhood until it holds some,
+                // then by one more bin, up to 3 bins away; beyond that the voxel is outside.
+                let mut near = around(1);
+                let mut reach = 1;
+                while near.is_empty() && reach < 3 {
+                    reach += 1;
+                    near = around(reach);
+                }
+                if reach > 1 && !near.is_empty() {
+                    near = around(reach + 1);
+                }
                 let min_d = |p: Vec3| (p.clamp(lo, hi) - p).length();
                 let max_d = |p: Vec3| (p - (lo + hi) * 0.5).abs().add(Vec3::splat(bin * 0.5)).length();
                 let bound = near.iter().map(|&k| max_d(samples[k as usize].0)).fold(f32::INFINITY, f32::min);
