@@ -8,7 +8,7 @@ use lamina_bridge::{
 };
 use lamina_core::model::{Model, Tissue};
 use lamina_core::real::Real;
-use lamina_core::scene::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource};
+use lamina_core::scene::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource, VisualSection};
 use lamina_core::solver::State;
 use lamina_rt::MonitorSummary;
 
@@ -64,6 +64,11 @@ pub fn wire_tool(tool: Option<&ToolSettings>) -> WireTool {
         }
     }
     wire
+}
+
+/// The scene's volume texture as the wire carries it.
+pub fn volume_of(visual: &VisualSection) -> VolumeTopology {
+    VolumeTopology { path: visual.volume.display().to_string(), origin_m: visual.origin_m, window: visual.window }
 }
 
 /// Everything the viewer and the haptics process need of the model, in one message: name,
@@ -124,12 +129,17 @@ pub fn topology_of(model: &Model, tool: Option<&ToolSettings>, volume: Option<Vo
 impl CorePublisher {
     /// Opens the bridge under `prefix` and publishes the topology; with a haptics-driven
     /// `tool`, also subscribes to `tool` and publishes `feedback`.
-    pub fn open(prefix: &str, model: &Model, tool: Option<&ToolSettings>) -> Result<Self, String> {
+    pub fn open(
+        prefix: &str,
+        model: &Model,
+        tool: Option<&ToolSettings>,
+        visual: Option<&VisualSection>,
+    ) -> Result<Self, String> {
         let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(|e| format!("bridge: {e}"))?;
         // The node publisher first: it holds the prefix's lock, so a second core on a live
         // prefix stops here, before it publishes anything.
         let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| e.to_string())?;
-        let topology = topology_of(model, tool, None);
+        let topology = topology_of(model, tool, visual.map(volume_of));
         let mut topo_pub =
             TopologyPublisher::create(&bridge, topology.word_count()).map_err(|e| format!("topology service: {e}"))?;
         topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;

@@ -101,6 +101,14 @@ struct Args {
     /// No text overlay.
     #[arg(long)]
     no_overlay: bool,
+    /// No volume texture: each tissue in its flat colour (key T switches it in the window).
+    #[arg(long)]
+    no_texture: bool,
+    /// Volume texture: a NIfTI-1 file (.nii or .nii.gz), placed by its header's origin and
+    /// spacing, drawn through its full intensity range (a scene's [visual] table can say more).
+    /// Default: the scene's [visual] volume, else a procedural one.
+    #[arg(long, value_name = "FILE")]
+    volume: Option<PathBuf>,
     /// Give up after waiting this long for the core without receiving anything, seconds
     /// (default: wait forever).
     #[arg(long)]
@@ -164,6 +172,7 @@ fn options(args: &Args) -> ViewerOptions {
         },
         cut: !args.no_cut,
         overlay: !args.no_overlay,
+        texture: !args.no_texture,
         focus: args.focus.map(|[x, y, z, span_m]| lamina_viewer::camera::Focus {
             target: glam::Vec3::new(x, y, z),
             from: glam::Vec3::from_array(args.focus_from),
@@ -180,10 +189,20 @@ fn replay_model(args: &Args) -> Result<ViewModel, String> {
         None => Scene::builtin_default(),
     };
     let model = scene.build_model().map_err(|e| e.to_string())?;
-    Ok(ViewModel::from_core_model(&model))
+    let mut view = ViewModel::from_core_model(&model);
+    view.volume = lamina_viewer::view_model::VolumeSpec::from_scene(&scene);
+    Ok(view)
 }
 
 fn open_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
+    let source = open_model_source(args)?;
+    let Some(path) = &args.volume else { return Ok(source) };
+    lamina_viewer::volume::read_nifti_header(path).map_err(|e| e.to_string())?;
+    let spec = lamina_viewer::view_model::VolumeSpec { path: path.clone(), ..Default::default() };
+    Ok(Box::new(lamina_viewer::volume::WithVolume::new(source, spec)))
+}
+
+fn open_model_source(args: &Args) -> Result<Box<dyn FrameSource>, String> {
     if args.synthetic {
         return Ok(Box::new(SyntheticSource::default()));
     }
@@ -266,6 +285,9 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> Result<(), String>
                 );
                 model_name.clone_from(&model.name);
                 viewer.set_model(model);
+                if let Some(e) = viewer.composer().volume_error() {
+                    return Err(e.to_string());
+                }
             }
             SourceEvent::Idle(what) => {
                 let since = *idle_since.get_or_insert_with(Instant::now);

@@ -86,6 +86,37 @@ pub struct ViewModel {
     /// Radius of the scene's tool, m (0: no tool); a tool command with radius 0 is drawn
     /// with it.
     pub tool_radius_m: f32,
+    /// Each node's rest position, metres, model frame: where its 3D texture coordinate is
+    /// fixed, so the texture moves with the tissue. Empty: the first frame's positions.
+    pub rest_positions: Vec<Vec3>,
+    /// Each node's tissue (its layer's), for the procedural volume texture. Empty: unknown
+    /// (the tissue is then taken from the boundary grids the node lies on).
+    pub node_tissue: Vec<Tissue>,
+    /// The user's volume texture, if any (else a procedural one is baked from the tissues).
+    pub volume: Option<VolumeSpec>,
+}
+
+/// Where the viewer finds a user's volume texture (a NIfTI-1 file) and how it places it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VolumeSpec {
+    /// The file, `.nii` or `.nii.gz`.
+    pub path: std::path::PathBuf,
+    /// Position of the first voxel's centre, metres, model frame. `None`: the header's origin.
+    pub origin_m: Option<[f32; 3]>,
+    /// Intensities mapped to black and white, `[lo, hi]`. `None`: the data's minimum and maximum.
+    pub window: Option<[f32; 2]>,
+}
+
+impl VolumeSpec {
+    /// The volume of a scene's `[visual]` table, if it names one.
+    pub fn from_scene(scene: &lamina_core::scene::Scene) -> Option<Self> {
+        let visual = scene.visual.as_ref()?;
+        Some(Self {
+            path: visual.volume.clone(),
+            origin_m: visual.origin_m.map(|o| o.map(|c| c as f32)),
+            window: visual.window.map(|w| w.map(|c| c as f32)),
+        })
+    }
 }
 
 impl ViewModel {
@@ -138,6 +169,10 @@ impl ViewModel {
             view.springs.push([springs.a[s], springs.b[s]]);
             view.spring_tissue.push(layer_tissue.get(springs.layer[s] as usize).copied().unwrap_or(Tissue::Other));
         }
+        view.rest_positions =
+            model.nodes.position.iter().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32)).collect();
+        view.node_tissue =
+            model.nodes.layer.iter().map(|&l| layer_tissue.get(l as usize).copied().unwrap_or(Tissue::Other)).collect();
         view
     }
 
@@ -152,6 +187,8 @@ impl ViewModel {
             tool_radius_m: if topology.tool.source == 0 { 0.0 } else { topology.tool.radius_m as f32 },
             ..Self::default()
         };
+        let layer_tissue =
+            |l: u32| topology.layers.get(l as usize).map_or(Tissue::Other, |layer| tissue_of(layer.tissue));
         for surface in &topology.surfaces {
             let tissue = tissue_of(surface.tissue);
             match surface.grid {
@@ -184,14 +221,16 @@ impl ViewModel {
             view.spring_tissue = vec![Tissue::Skin; edges.len()];
             view.springs = edges;
         } else {
-            let layer_tissue: Vec<Tissue> = topology.layers.iter().map(|l| tissue_of(l.tissue)).collect();
             view.springs = topology.springs.clone();
-            view.spring_tissue = topology
-                .spring_layer
-                .iter()
-                .map(|&l| layer_tissue.get(l as usize).copied().unwrap_or(Tissue::Other))
-                .collect();
+            view.spring_tissue = topology.spring_layer.iter().map(|&l| layer_tissue(l)).collect();
         }
+        view.rest_positions = topology.rest_positions.iter().map(|p| Vec3::from_array(*p)).collect();
+        view.node_tissue = topology.node_layer.iter().map(|&l| layer_tissue(l)).collect();
+        view.volume = topology.volume.as_ref().filter(|v| !v.path.is_empty()).map(|v| VolumeSpec {
+            path: v.path.clone().into(),
+            origin_m: v.origin_m.map(|o| o.map(|c| c as f32)),
+            window: v.window.map(|w| w.map(|c| c as f32)),
+        });
         view
     }
 }

@@ -267,6 +267,10 @@ impl App<'_> {
             match self.source.next_event(Duration::from_millis(2)) {
                 SourceEvent::Model(model) => {
                     self.composer.set_model(model);
+                    if let Some(e) = self.composer.volume_error() {
+                        self.error = Some(WindowRunError::Setup(e.to_string()));
+                        self.quit = true;
+                    }
                     // A new model gets its own default view.
                     self.controls.state.camera = None;
                 }
@@ -444,6 +448,7 @@ impl App<'_> {
                 cut: self.composer.cut(),
                 background: &self.composer.background,
                 overlay: &self.composer.overlay,
+                volume: self.composer.drawn_volume(),
             };
             s.renderer.draw(&s.gpu, &view, &input);
             drew = true;
@@ -483,6 +488,7 @@ impl App<'_> {
             cut: self.composer.cut(),
             background: &self.composer.background,
             overlay: &self.composer.overlay,
+            volume: self.composer.drawn_volume(),
         };
         renderer.draw(&s.gpu, target.view(), &input);
         wait_idle(&s.gpu);

@@ -11,6 +11,7 @@ mod solver_section;
 mod springs_section;
 mod tool_section;
 mod tool_settings;
+mod visual_section;
 
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
@@ -19,3 +20,4 @@ pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::SceneSprings;
 pub use tool_settings::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource};
+pub use visual_section::VisualSection;
