@@ -51,5 +51,7 @@ pub use subscribe::{
     FeedbackSubscriber, MessageSample, MessageSubscriber, NodesSample, NodesSubscriber, SampleReceiveError,
     StatsSubscriber, ToolSubscriber, TopologySample, TopologySubscriber,
 };
-pub use topology::{LayerRange, Topology, TopologyDecodeError, TopologyEncodeError};
-pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand};
+pub use topology::{
+    LayerRange, SurfaceTopology, TissueKind, Topology, TopologyDecodeError, TopologyEncodeError, VolumeTopology,
+};
+pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand, WireTool};

@@ -33,6 +33,18 @@ pub const MAX_LAYERS: usize = 16;
 /// Length in bytes of a layer name on the wire (UTF-8, padded with NUL bytes).
 pub const LAYER_NAME_LEN: usize = 32;
 
+/// Maximum number of named surfaces a [`TopologyHeader`] can describe.
+pub const MAX_SURFACES: usize = 8;
+
+/// Length in bytes of a surface name on the wire (UTF-8, padded with NUL bytes).
+pub const SURFACE_NAME_LEN: usize = 32;
+
+/// Length in bytes of the model name on the wire (UTF-8, padded with NUL bytes).
+pub const MODEL_NAME_LEN: usize = 64;
+
+/// Length in bytes of the volume texture's path on the wire (UTF-8, padded with NUL bytes).
+pub const VOLUME_PATH_LEN: usize = 256;
+
 /// The user header of every frame on the `nodes` service; the payload is the positions slice.
 ///
 /// Payload: `[[f32; 3]]`, `node_count` entries, node `i`'s position `[x, y, z]` in metres in
@@ -56,50 +68,211 @@ pub struct NodesHeader {
     pub reserved: u32,
 }
 
-/// One layer's node range and name as carried in [`TopologyHeader::layers`].
+/// Tissue codes used in [`WireLayer::tissue`] and [`WireSurface::tissue`].
+pub mod tissue_code {
+    /// Anything else (a test block, an unnamed layer).
+    pub const OTHER: u32 = 0;
+    /// Skin (epidermis and dermis).
+    pub const SKIN: u32 = 1;
+    /// Subcutaneous fat.
+    pub const FAT: u32 = 2;
+    /// Skeletal muscle.
+    pub const MUSCLE: u32 = 3;
+    /// Bone.
+    pub const BONE: u32 = 4;
+}
+
+/// One layer of the model as carried in [`TopologyHeader::layers`]: its name, tissue and the
+/// node range it occupies. Nodes and springs name their layer by its index in this table.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("LaminaWireLayerV1")]
+#[type_name("LaminaWireLayerV2")]
 pub struct WireLayer {
     /// UTF-8 name, padded with NUL bytes to [`LAYER_NAME_LEN`]; contains no NUL itself.
     pub name: [u8; LAYER_NAME_LEN],
-    /// Index of the layer's first node.
+    /// Index of the layer's first node (0 when it has none).
     pub first_node: u32,
-    /// Number of consecutive nodes belonging to the layer.
+    /// Nodes from `first_node` to the layer's last node, inclusive (0 when it has none, e.g.
+    /// a muscle layer whose springs join the fat and bone nodes). Lamina's models keep each
+    /// layer's nodes contiguous; the per-node layer section is exact in every case.
     pub node_count: u32,
+    /// Tissue code ([`tissue_code`]).
+    pub tissue: u32,
+    /// Always zero (explicit padding).
+    pub reserved: u32,
 }
 
-/// The user header of the `topology` service: the static model for late joiners.
-///
-/// Payload: `[u32]` words, in this order:
-/// 1. `3 * triangle_count` node indices, three per surface triangle (counter-clockwise seen
-///    from outside);
-/// 2. `2 * tex_coord_count` texture coordinates `(u, v)` stored as `f32::to_bits`, one pair
-///    per node (`tex_coord_count` is 0 or `node_count`).
-///
-/// Use [`crate::topology::Topology`] to build and read it: it validates both directions.
+/// One named surface as carried in [`TopologyHeader::surfaces`]; its node indices are in the
+/// payload's surface section, surfaces one after the other in table order.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("LaminaTopologyHeaderV1")]
+#[type_name("LaminaWireSurfaceV1")]
+pub struct WireSurface {
+    /// UTF-8 name, padded with NUL bytes to [`SURFACE_NAME_LEN`] (e.g. `skin_outer`,
+    /// `skin_fat`, `fat_muscle`, `muscle_bone`).
+    pub name: [u8; SURFACE_NAME_LEN],
+    /// Tissue just beneath the surface (the outer skin surface has skin beneath), a
+    /// [`tissue_code`].
+    pub tissue: u32,
+    /// Grid columns (around the limb) when the surface is a regular grid, else 0. A closed
+    /// tube repeats its first column as its last.
+    pub grid_cols: u32,
+    /// Grid rows (along the limb) when the surface is a regular grid, else 0.
+    pub grid_rows: u32,
+    /// Node indices of this surface in the payload: `grid_cols * grid_rows` grid points
+    /// row-major for a grid, else three per triangle (counter-clockwise seen from outside).
+    pub index_count: u32,
+}
+
+/// The scene's haptic tool and the device-to-model mapping, as carried in
+/// [`TopologyHeader::tool`]. A haptics process maps a device position `p` (m; x toward the
+/// operator, y right, z up, origin at the workspace centre) to the model as
+/// `device_origin_m + position_scale · R · p`, and a model force `f` back to the device as
+/// `force_scale · Rᵀ · f`.
+#[derive(Debug, Default, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("LaminaWireToolV1")]
+pub struct WireTool {
+    /// Where the tool is driven from: 0 no tool in the scene, 1 a script inside the core,
+    /// 2 the haptics process over `tool`.
+    pub source: u32,
+    /// Always zero (explicit padding).
+    pub reserved: u32,
+    /// Sphere radius, m (a `ToolCommand` radius of 0 means this one).
+    pub radius_m: f64,
+    /// Smallest radius a command may give the sphere, m (smaller ones are raised to it).
+    pub min_radius_m: f64,
+    /// Penalty stiffness per node in contact, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Model position of the device's workspace centre, m.
+    pub device_origin_m: [f64; 3],
+    /// Rotation `R` from device to model axes, row-major (`model_i = Σ_j R[i][j] device_j`).
+    pub device_rotation: [[f64; 3]; 3],
+    /// Model metres per device metre.
+    pub position_scale: f64,
+    /// Device newtons per model newton.
+    pub force_scale: f64,
+}
+
+/// The scene's volume texture (its `[visual]` table), as carried in
+/// [`TopologyHeader::volume`]. A node's 3D texture coordinate is its rest position mapped into
+/// the volume's box.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("LaminaWireVolumeV1")]
+pub struct WireVolume {
+    /// Absolute path of the NRRD or NIfTI file, UTF-8, NUL-padded; empty: the viewer's
+    /// procedural tissue volume.
+    pub path: [u8; VOLUME_PATH_LEN],
+    /// Model position of the volume's origin, m (used when `flags` bit 0 is set; else the
+    /// file header's origin).
+    pub origin_m: [f64; 3],
+    /// Intensity window `[low, high]` mapped to black..white (used when `flags` bit 1 is set;
+    /// else the data's minimum and maximum).
+    pub window: [f64; 2],
+    /// Bit 0: `origin_m` is given; bit 1: `window` is given.
+    pub flags: u32,
+    /// Always zero (explicit padding).
+    pub reserved: u32,
+}
+
+impl Default for WireVolume {
+    fn default() -> Self {
+        Self { path: [0; VOLUME_PATH_LEN], origin_m: [0.0; 3], window: [0.0; 2], flags: 0, reserved: 0 }
+    }
+}
+
+/// The user header of the `topology` service: the static model for late joiners, everything
+/// a viewer and a haptics process need (no scene file on their side).
+///
+/// Payload: `[u32]` words, sections in this order (a section of count 0 is absent):
+/// 1. `3 * triangle_count` node indices, three per outer-surface triangle (counter-clockwise
+///    seen from outside): every surface's triangles, for clients that draw only a shell;
+/// 2. `2 * tex_coord_count` 2D texture coordinates `(u, v)` stored as `f32::to_bits`, one
+///    pair per node (`tex_coord_count` is 0 or `node_count`);
+/// 3. the surfaces' node indices, `surfaces[i].index_count` words each, in table order;
+/// 4. `2 * spring_count` node indices, two per spring;
+/// 5. `spring_count` layer indices, one per spring (into `layers`);
+/// 6. `node_layer_count` layer indices, one per node (0 or `node_count`);
+/// 7. `3 * rest_position_count` rest positions `[x, y, z]` in metres as `f32::to_bits`, one
+///    triple per node (0 or `node_count`).
+///
+/// Use [`crate::topology::Topology`] to build and read it: it validates both directions.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("LaminaTopologyHeaderV2")]
 pub struct TopologyHeader {
     /// Incremented by the publisher each time the topology is republished (model reloaded).
     pub revision: u64,
     /// Number of nodes in the model (and in every `nodes` frame).
     pub node_count: u32,
-    /// Number of surface triangles in the payload.
+    /// Number of outer-surface triangles in the payload's first section.
     pub triangle_count: u32,
     /// Number of texture coordinate pairs in the payload (0 or `node_count`).
     pub tex_coord_count: u32,
     /// Number of valid entries at the start of `layers` (at most [`MAX_LAYERS`]).
     pub layer_count: u32,
+    /// Number of valid entries at the start of `surfaces` (at most [`MAX_SURFACES`]).
+    pub surface_count: u32,
+    /// Number of springs in the payload.
+    pub spring_count: u32,
+    /// Number of per-node layer indices in the payload (0 or `node_count`).
+    pub node_layer_count: u32,
+    /// Number of rest positions in the payload (0 or `node_count`).
+    pub rest_position_count: u32,
+    /// Model name, UTF-8, NUL-padded.
+    pub model_name: [u8; MODEL_NAME_LEN],
     /// Layer table; entries at `layer_count..` are zero.
     pub layers: [WireLayer; MAX_LAYERS],
+    /// Surface table; entries at `surface_count..` are zero.
+    pub surfaces: [WireSurface; MAX_SURFACES],
+    /// The haptic tool and device mapping.
+    pub tool: WireTool,
+    /// The volume texture.
+    pub volume: WireVolume,
+}
+
+impl Default for TopologyHeader {
+    fn default() -> Self {
+        Self {
+            revision: 0,
+            node_count: 0,
+            triangle_count: 0,
+            tex_coord_count: 0,
+            layer_count: 0,
+            surface_count: 0,
+            spring_count: 0,
+            node_layer_count: 0,
+            rest_position_count: 0,
+            model_name: [0; MODEL_NAME_LEN],
+            layers: [WireLayer::default(); MAX_LAYERS],
+            surfaces: [WireSurface::default(); MAX_SURFACES],
+            tool: WireTool::default(),
+            volume: WireVolume::default(),
+        }
+    }
 }
 
 impl TopologyHeader {
-    /// Number of `u32` payload words this header describes.
+    /// Number of `u32` words of the surfaces' section (saturating: a corrupt header gives a
+    /// count no payload matches).
+    pub fn surface_index_words(&self) -> usize {
+        let n = (self.surface_count as usize).min(MAX_SURFACES);
+        self.surfaces[..n].iter().fold(0usize, |acc, s| acc.saturating_add(s.index_count as usize))
+    }
+
+    /// Number of `u32` payload words this header describes (saturating).
     pub fn word_count(&self) -> usize {
-        3 * self.triangle_count as usize + 2 * self.tex_coord_count as usize
+        [
+            3 * self.triangle_count as usize,
+            2 * self.tex_coord_count as usize,
+            self.surface_index_words(),
+            3 * self.spring_count as usize,
+            self.node_layer_count as usize,
+            3 * self.rest_position_count as usize,
+        ]
+        .iter()
+        .fold(0usize, |acc, &w| acc.saturating_add(w))
     }
 }
 

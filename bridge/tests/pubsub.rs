@@ -5,8 +5,8 @@ use core::time::Duration;
 
 use lamina_bridge::{
     Bridge, BridgeConfig, BridgeOpenError, ContactFeedback, FeedbackPublisher, FeedbackSubscriber, LayerRange,
-    NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary, ToolCommand,
-    ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
+    NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary, TissueKind,
+    ToolCommand, ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
 };
 
 /// Watchdog for waits that must succeed; it bounds a hang, it is not a timing requirement.
@@ -113,10 +113,14 @@ fn topology_late_joiner_works() {
         node_count: 4,
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         layers: vec![
-            LayerRange { name: "skin".into(), first_node: 0, node_count: 2 },
-            LayerRange { name: "muscle".into(), first_node: 2, node_count: 2 },
+            LayerRange { name: "skin".into(), tissue: TissueKind::Skin, first_node: 0, node_count: 2 },
+            LayerRange { name: "muscle".into(), tissue: TissueKind::Muscle, first_node: 2, node_count: 2 },
         ],
         tex_coords: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+        springs: vec![[0, 1], [2, 3], [1, 2]],
+        spring_layer: vec![0, 1, 1],
+        rest_positions: vec![[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.01, 0.01, 0.0], [0.0, 0.01, 0.0]],
+        ..Topology::default()
     };
     let mut publisher = TopologyPublisher::create(&b, topo.word_count()).unwrap();
     assert_eq!(publisher.publish(&topo).unwrap(), 0, "nobody subscribed yet");

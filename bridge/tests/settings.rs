@@ -149,13 +149,33 @@ fn wake_event_with_too_few_listeners_is_refused_naming_it_works() {
 
 #[test]
 fn wire_type_sizes_match_the_python_clients_works() {
-    // examples/python/lamina_wire.py declares the same sizes and checks them at import.
-    use core::mem::{align_of, size_of};
-    assert_eq!((size_of::<[f32; 3]>(), align_of::<[f32; 3]>()), (12, 4));
-    assert_eq!((size_of::<NodesHeader>(), align_of::<NodesHeader>()), (40, 8));
-    assert_eq!((size_of::<WireLayer>(), align_of::<WireLayer>()), (40, 4));
-    assert_eq!((size_of::<TopologyHeader>(), align_of::<TopologyHeader>()), (664, 8));
-    assert_eq!((size_of::<ToolCommand>(), align_of::<ToolCommand>()), (88, 8));
-    assert_eq!((size_of::<ContactFeedback>(), align_of::<ContactFeedback>()), (152, 8));
-    assert_eq!((size_of::<StatsSummary>(), align_of::<StatsSummary>()), (136, 8));
+    // examples/python/lamina_wire.py declares every type's size in `WIRE_SIZES` and checks its
+    // ctypes declarations against them at import; those sizes must be the Rust types'.
+    use core::mem::size_of;
+    use lamina_bridge::wire::{WireSurface, WireTool, WireVolume};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/python/lamina_wire.py");
+    let text = std::fs::read_to_string(path).expect("examples/python/lamina_wire.py");
+    let table = text.split_once("WIRE_SIZES = {").expect("WIRE_SIZES in lamina_wire.py").1;
+    let table = table.split_once('}').expect("WIRE_SIZES closes").0;
+    let python: std::collections::BTreeMap<&str, usize> = table
+        .lines()
+        .filter_map(|l| l.trim().trim_end_matches(',').split_once(": "))
+        .map(|(name, size)| (name, size.parse().expect("a size in bytes")))
+        .collect();
+    let rust = [
+        ("Position", size_of::<[f32; 3]>()),
+        ("NodesHeader", size_of::<NodesHeader>()),
+        ("WireLayer", size_of::<WireLayer>()),
+        ("WireSurface", size_of::<WireSurface>()),
+        ("WireTool", size_of::<WireTool>()),
+        ("WireVolume", size_of::<WireVolume>()),
+        ("TopologyHeader", size_of::<TopologyHeader>()),
+        ("ToolCommand", size_of::<ToolCommand>()),
+        ("ContactFeedback", size_of::<ContactFeedback>()),
+        ("StatsSummary", size_of::<StatsSummary>()),
+    ];
+    assert_eq!(python.len(), rust.len(), "lamina_wire.py declares {python:?}");
+    for (name, size) in rust {
+        assert_eq!(python.get(name), Some(&size), "{name}: lamina_wire.py against the Rust type");
+    }
 }

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use iceoryx2::prelude::{PortFactory as _, ZeroCopySend};
 use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
 use lamina_bridge::services::{open_message_service, open_nodes_service, open_topology_service, open_wake_service};
-use lamina_bridge::wire::{TopologyHeader, WireLayer};
+use lamina_bridge::wire::{TopologyHeader, WireLayer, WireSurface, WireTool, WireVolume};
 use lamina_bridge::{
     Bridge, BridgeConfig, ContactFeedback, FeedbackPublisher, NodesHeader, NodesPublisher, Percentiles, ServiceNames,
     StatsPublisher, StatsSummary, ToolCommand, ToolPublisher, Topology, TopologyPublisher, UserDomain,
@@ -153,13 +153,49 @@ fn documented_byte_layouts_match_the_types_works() {
     let text = page();
     let l = layouts(&text);
     check_layout!(l, NodesHeader, [sequence, tick, sim_time_s, publish_time_ns, node_count, reserved]);
-    check_layout!(l, TopologyHeader, [revision, node_count, triangle_count, tex_coord_count, layer_count, layers]);
-    check_layout!(l, WireLayer, [name, first_node, node_count]);
+    check_layout!(
+        l,
+        TopologyHeader,
+        [
+            revision,
+            node_count,
+            triangle_count,
+            tex_coord_count,
+            layer_count,
+            surface_count,
+            spring_count,
+            node_layer_count,
+            rest_position_count,
+            model_name,
+            layers,
+            surfaces,
+            tool,
+            volume
+        ]
+    );
+    check_layout!(l, WireLayer, [name, first_node, node_count, tissue, reserved]);
+    check_layout!(l, WireSurface, [name, tissue, grid_cols, grid_rows, index_count]);
+    check_layout!(
+        l,
+        WireTool,
+        [
+            source,
+            reserved,
+            radius_m,
+            min_radius_m,
+            stiffness_n_per_m,
+            device_origin_m,
+            device_rotation,
+            position_scale,
+            force_scale
+        ]
+    );
+    check_layout!(l, WireVolume, [path, origin_m, window, flags, reserved]);
     check_layout!(l, ToolCommand, [sequence, time_ns, position, orientation, buttons, reserved, tool_radius_m]);
     check_layout!(l, ContactFeedback, [sequence, tick, publish_time_ns, in_contact, reserved, force, stiffness, x_ref]);
     check_layout!(l, StatsSummary, [sequence, publish_time_ns, ticks, misses, lateness, compute, period, worst_tick]);
     check_layout!(l, Percentiles, [p50_ns, p99_ns, p999_ns, max_ns]);
-    assert_eq!(l.len(), 7, "sections laid out: {:?}", l.keys().collect::<Vec<_>>());
+    assert_eq!(l.len(), 10, "sections laid out: {:?}", l.keys().collect::<Vec<_>>());
 }
 
 fn bridge(test: &str) -> Bridge {

@@ -39,17 +39,24 @@ fn file(path: &Path) -> Result<std::fs::File, String> {
     std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// The `lamina-haptics` arguments for `scene`'s haptics-driven tool (device origin and tool
-/// radius, so the viewer draws the tool), or `None` when the scene has no such tool.
-pub fn haptics_args(scene: Option<&Path>) -> Result<Option<[String; 4]>, String> {
+/// The scene's tool when the haptics process drives it: where the device's workspace centre
+/// sits in the model and the sphere's radius. The haptics process and the viewer learn both
+/// from the core's model message; the demo needs them for its own view and measurements.
+#[derive(Debug, Clone, Copy)]
+pub struct HapticTool {
+    /// Model position of the device's workspace centre, m.
+    pub device_origin: [f64; 3],
+    /// Sphere radius, m.
+    pub radius: f64,
+}
+
+/// `scene`'s haptics-driven tool, or `None` when the scene has no such tool.
+pub fn haptic_tool(scene: Option<&Path>) -> Result<Option<HapticTool>, String> {
     let scene = super::run::load_scene(&scene.map(Path::to_path_buf))?;
     Ok(scene.tool.and_then(|t| match t.source {
-        lamina_core::scene::ToolSource::Haptics { device_origin: o, .. } => Some([
-            "--origin".into(),
-            format!("{},{},{}", o[0], o[1], o[2]),
-            "--tool-radius".into(),
-            t.radius.to_string(),
-        ]),
+        lamina_core::scene::ToolSource::Haptics { device_origin, .. } => {
+            Some(HapticTool { device_origin, radius: t.radius })
+        }
         lamina_core::scene::ToolSource::Scripted { .. } => None,
     }))
 }
@@ -58,14 +65,12 @@ pub fn haptics_args(scene: Option<&Path>) -> Result<Option<[String; 4]>, String>
 /// grasp, so the 12 mm press is about 50 pixels deep in the 540-pixel-high image.
 const VIEW_SPAN_M: f64 = 0.12;
 
-/// The viewer's `--focus` for the scripted press (from [`haptics_args`]): the top of the skin
-/// (one tool radius below the device origin), midway between the press and the grasp site
-/// (device x is model z).
-fn focus(haptics_args: &[String; 4]) -> Option<String> {
-    let o: Vec<f64> = haptics_args[1].split(',').map(|v| v.parse::<f64>()).collect::<Result<_, _>>().ok()?;
-    let radius: f64 = haptics_args[3].parse().ok()?;
-    let z = o.get(2)? + 0.5 * super::demo_script::GRASP_OFFSET_X_M;
-    Some(format!("{},{},{z},{VIEW_SPAN_M}", o.first()?, o.get(1)? - radius))
+/// The viewer's `--focus` for the scripted press: the top of the skin (one tool radius below
+/// the device origin), midway between the press and the grasp site (device x is model z).
+fn focus(tool: &HapticTool) -> String {
+    let o = tool.device_origin;
+    let z = o[2] + 0.5 * super::demo_script::GRASP_OFFSET_X_M;
+    format!("{},{},{z},{VIEW_SPAN_M}", o[0], o[1] - tool.radius)
 }
 
 /// What the viewer left: frames shown in a window (its log says how many; screenshots, key
@@ -152,11 +157,11 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     let display = [std::env::var_os("DISPLAY"), std::env::var_os("WAYLAND_DISPLAY")]
         .iter()
         .any(|d| d.as_ref().is_some_and(|d| !d.is_empty()));
-    let haptics_args = haptics_args(scene)?;
+    let haptic_tool = haptic_tool(scene)?;
     let script = DemoScript::for_run(seconds);
     // The demo's own measurements, subscribed before the core starts.
-    let watch = match &haptics_args {
-        Some(args) => Some(Watch::start(&prefix, args[3].parse().unwrap_or(0.0))?),
+    let watch = match &haptic_tool {
+        Some(tool) => Some(Watch::start(&prefix, tool.radius)?),
         None => None,
     };
 
@@ -165,11 +170,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "2"]);
     viewer.arg("--frames").arg(format!("{}", (seconds * 60.0).max(10.0) as u64));
     viewer.arg("--out").arg(&frames_dir);
-    if let Some(s) = scene {
-        viewer.arg("--scene").arg(s);
-    }
-    if let Some(focus) = haptics_args.as_ref().and_then(focus) {
-        viewer.arg("--focus").arg(focus);
+    if let Some(tool) = &haptic_tool {
+        viewer.arg("--focus").arg(focus(tool));
     }
     let viewer_log = out.join("viewer.log");
     let mut viewer = viewer
@@ -199,8 +201,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     // Haptics joins once the core is up (it renders zero force until the first feedback).
     let haptics_report = out.join("haptics_report.json");
     let haptics_log = out.join("haptics.log");
-    let mut haptics = match haptics_args {
-        Some(args) => {
+    let mut haptics = match haptic_tool {
+        Some(_) => {
             let trajectory = out.join("demo_press_pull.csv");
             std::fs::write(&trajectory, &script.csv).map_err(|e| format!("{}: {e}", trajectory.display()))?;
             std::thread::sleep(std::time::Duration::from_millis(600));
@@ -208,7 +210,6 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
             h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
                 .arg("--device")
                 .arg(format!("scripted:{}", trajectory.display()))
-                .args(&args)
                 .args(["--seconds", &format!("{}", (seconds - 0.8).max(0.5))])
                 .arg("--report")
                 .arg(&haptics_report)

@@ -108,8 +108,8 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
     bar.set_message(format!("haptics against the core ({seconds} s)"));
     // The haptics process against the real core: a scripted device pressing and pulling
     // the skin, device loop at 4 kHz on the first CPU, the core on the last.
-    let haptics = match super::demo::haptics_args(scene)? {
-        Some(args) => Some(profile_haptics(scene, &args, seconds, out)?),
+    let haptics = match super::demo::haptic_tool(scene)? {
+        Some(_) => Some(profile_haptics(scene, seconds, out)?),
         None => None,
     };
     bar.inc(1);
@@ -230,12 +230,7 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
 }
 
 /// Core plus `lamina-haptics` (scripted press and pull) for `seconds`; the haptics report.
-fn profile_haptics(
-    scene: Option<&Path>,
-    args: &[String],
-    seconds: f64,
-    out: &Path,
-) -> Result<serde_json::Value, String> {
+fn profile_haptics(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<serde_json::Value, String> {
     let prefix = format!("profile_haptics_{}", std::process::id());
     let mut cmd = Command::new(std::env::current_exe().map_err(|e| e.to_string())?);
     cmd.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &(seconds + 1.0).to_string()]);
@@ -255,7 +250,6 @@ fn profile_haptics(
         .args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
         .arg("--device")
         .arg(format!("scripted:{}", trajectory.display()))
-        .args(args)
         .arg("--report")
         .arg(&report)
         .stdout(Stdio::null())

@@ -3,11 +3,12 @@
 //! summary every second. Publishing never waits for a subscriber (see `lamina-bridge`).
 
 use lamina_bridge::{
-    Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, Topology, TopologyPublisher, now_ns,
+    Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, SurfaceTopology, TissueKind,
+    Topology, TopologyPublisher, VolumeTopology, WireTool, now_ns,
 };
-use lamina_core::model::Model;
+use lamina_core::model::{Model, Tissue};
 use lamina_core::real::Real;
-use lamina_core::scene::ToolSettings;
+use lamina_core::scene::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource, VisualSection};
 use lamina_core::solver::State;
 use lamina_rt::MonitorSummary;
 
@@ -30,36 +31,115 @@ pub struct CorePublisher {
     pub withheld: u64,
 }
 
-/// The model's static part for viewers and tools: outer surface, layer node ranges.
-pub fn topology_of(model: &Model) -> Topology {
-    let mut layers: Vec<LayerRange> = Vec::new();
-    let mut start = 0usize;
-    let kinds = &model.nodes.layer;
-    for i in 1..=kinds.len() {
-        if i == kinds.len() || kinds[i] != kinds[start] {
-            let name = model.layers.get(kinds[start] as usize).map_or("layer".to_string(), |l| l.name.clone());
-            layers.push(LayerRange { name, first_node: start as u32, node_count: (i - start) as u32 });
-            start = i;
+/// The wire's name for a model tissue.
+fn tissue_kind(tissue: Tissue) -> TissueKind {
+    match tissue {
+        Tissue::Skin => TissueKind::Skin,
+        Tissue::Fat => TissueKind::Fat,
+        Tissue::Muscle => TissueKind::Muscle,
+        Tissue::Bone => TissueKind::Bone,
+        Tissue::Other => TissueKind::Other,
+    }
+}
+
+/// The scene's tool and device mapping as the wire carries it (`source` 0 without a tool).
+pub fn wire_tool(tool: Option<&ToolSettings>) -> WireTool {
+    let Some(tool) = tool else { return WireTool::default() };
+    let mut wire = WireTool {
+        radius_m: tool.radius,
+        min_radius_m: tool.shell_radius(),
+        stiffness_n_per_m: tool.stiffness,
+        device_rotation: DEVICE_TO_Y_UP_MODEL,
+        position_scale: 1.0,
+        force_scale: 1.0,
+        ..WireTool::default()
+    };
+    match tool.source {
+        ToolSource::Scripted { .. } => wire.source = 1,
+        ToolSource::Haptics { device_origin, device_scale, force_scale, .. } => {
+            wire.source = 2;
+            wire.device_origin_m = device_origin;
+            wire.position_scale = device_scale;
+            wire.force_scale = force_scale;
         }
     }
-    layers.truncate(lamina_bridge::wire::MAX_LAYERS);
+    wire
+}
+
+/// The scene's volume texture as the wire carries it.
+pub fn volume_of(visual: &VisualSection) -> VolumeTopology {
+    VolumeTopology { path: visual.volume.display().to_string(), origin_m: visual.origin_m, window: visual.window }
+}
+
+/// Everything the viewer and the haptics process need of the model, in one message: name,
+/// layers with their tissue and node range, every surface (grids for the Bézier patches),
+/// springs with their layer, each node's layer and rest position, the tool and device
+/// mapping, and the volume texture the scene names.
+pub fn topology_of(model: &Model, tool: Option<&ToolSettings>, volume: Option<VolumeTopology>) -> Topology {
+    let layers = model
+        .layers
+        .iter()
+        .enumerate()
+        .map(|(index, layer)| {
+            let in_layer = |l: &u16| usize::from(*l) == index;
+            let first = model.nodes.layer.iter().position(in_layer);
+            let last = model.nodes.layer.iter().rposition(in_layer);
+            let (first_node, node_count) = match (first, last) {
+                (Some(f), Some(l)) => (f as u32, (l - f + 1) as u32),
+                _ => (0, 0),
+            };
+            LayerRange { name: layer.name.clone(), tissue: tissue_kind(layer.tissue), first_node, node_count }
+        })
+        .collect();
+    let surfaces = model
+        .surfaces
+        .iter()
+        .map(|s| {
+            let tissue = tissue_kind(s.tissue_beneath());
+            match &s.grid {
+                Some((cols, rows, nodes)) => {
+                    SurfaceTopology { name: s.name.clone(), tissue, grid: Some((*cols, *rows)), indices: nodes.clone() }
+                }
+                None => SurfaceTopology {
+                    name: s.name.clone(),
+                    tissue,
+                    grid: None,
+                    indices: s.triangles.iter().flatten().copied().collect(),
+                },
+            }
+        })
+        .collect();
+    let springs = &model.springs;
     Topology {
+        name: model.name.clone(),
         node_count: model.nodes.len() as u32,
         triangles: model.surfaces.iter().flat_map(|s| s.triangles.iter().copied()).collect(),
         layers,
         tex_coords: model.nodes.texcoord.iter().map(|t| [t[0], t[1]]).collect(),
+        surfaces,
+        springs: (0..springs.len()).map(|s| [springs.a[s], springs.b[s]]).collect(),
+        spring_layer: springs.layer.iter().map(|&l| u32::from(l)).collect(),
+        node_layer: model.nodes.layer.iter().map(|&l| u32::from(l)).collect(),
+        rest_positions: model.nodes.position.iter().map(|p| p.map(|c| c as f32)).collect(),
+        tool: wire_tool(tool),
+        volume,
     }
 }
 
 impl CorePublisher {
     /// Opens the bridge under `prefix` and publishes the topology; with a haptics-driven
     /// `tool`, also subscribes to `tool` and publishes `feedback`.
-    pub fn open(prefix: &str, model: &Model, tool: Option<&ToolSettings>) -> Result<Self, String> {
+    pub fn open(
+        prefix: &str,
+        model: &Model,
+        tool: Option<&ToolSettings>,
+        visual: Option<&VisualSection>,
+    ) -> Result<Self, String> {
         let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(|e| format!("bridge: {e}"))?;
         // The node publisher first: it holds the prefix's lock, so a second core on a live
         // prefix stops here, before it publishes anything.
         let nodes = NodesPublisher::create(&bridge, model.nodes.len()).map_err(|e| e.to_string())?;
-        let topology = topology_of(model);
+        let topology = topology_of(model, tool, visual.map(volume_of));
         let mut topo_pub =
             TopologyPublisher::create(&bridge, topology.word_count()).map_err(|e| format!("topology service: {e}"))?;
         topo_pub.publish(&topology).map_err(|e| format!("topology: {e}"))?;

@@ -109,7 +109,8 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
     let mut publisher = match &opts.prefix {
         Some(prefix) => {
-            let mut p = super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref())?;
+            let mut p =
+                super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref(), scene.visual.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
             if let Some(h) = p.haptic.as_mut() {
                 if let Some(tool) = hand_tool.take() {

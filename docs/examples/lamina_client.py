@@ -8,8 +8,9 @@ iceoryx2 release as Lamina. Against a running core (`lamina run --prefix lamina`
     python3 lamina_client.py --prefix lamina --seconds 3 --press   # also drives the tool
 
 With --press it also sends tool commands (the scene must have a haptics tool, as the default
-scene does): the tool starts at --origin (the scene's effects.tool.device_origin), goes 8 mm
-down along -y over one second, holds, and the client prints the contact force it gets back.
+scene does): the tool starts at the device origin the topology carries (the scene's
+effects.tool.device_origin; --origin overrides it), goes 8 mm down along -y over one second,
+holds, and the client prints the contact force it gets back.
 """
 
 import argparse
@@ -52,11 +53,59 @@ class WireLayer(ctypes.Structure):
         ("name", ctypes.c_uint8 * 32),
         ("first_node", ctypes.c_uint32),
         ("node_count", ctypes.c_uint32),
+        ("tissue", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
     @staticmethod
     def type_name():
-        return "LaminaWireLayerV1"
+        return "LaminaWireLayerV2"
+
+
+class WireSurface(ctypes.Structure):
+    _fields_ = [
+        ("name", ctypes.c_uint8 * 32),
+        ("tissue", ctypes.c_uint32),
+        ("grid_cols", ctypes.c_uint32),
+        ("grid_rows", ctypes.c_uint32),
+        ("index_count", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaWireSurfaceV1"
+
+
+class WireTool(ctypes.Structure):
+    _fields_ = [
+        ("source", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("radius_m", ctypes.c_double),
+        ("min_radius_m", ctypes.c_double),
+        ("stiffness_n_per_m", ctypes.c_double),
+        ("device_origin_m", ctypes.c_double * 3),
+        ("device_rotation", (ctypes.c_double * 3) * 3),
+        ("position_scale", ctypes.c_double),
+        ("force_scale", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaWireToolV1"
+
+
+class WireVolume(ctypes.Structure):
+    _fields_ = [
+        ("path", ctypes.c_uint8 * 256),
+        ("origin_m", ctypes.c_double * 3),
+        ("window", ctypes.c_double * 2),
+        ("flags", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "LaminaWireVolumeV1"
 
 
 class TopologyHeader(ctypes.Structure):
@@ -66,12 +115,31 @@ class TopologyHeader(ctypes.Structure):
         ("triangle_count", ctypes.c_uint32),
         ("tex_coord_count", ctypes.c_uint32),
         ("layer_count", ctypes.c_uint32),
+        ("surface_count", ctypes.c_uint32),
+        ("spring_count", ctypes.c_uint32),
+        ("node_layer_count", ctypes.c_uint32),
+        ("rest_position_count", ctypes.c_uint32),
+        ("model_name", ctypes.c_uint8 * 64),
         ("layers", WireLayer * 16),
+        ("surfaces", WireSurface * 8),
+        ("tool", WireTool),
+        ("volume", WireVolume),
     ]
 
     @staticmethod
     def type_name():
-        return "LaminaTopologyHeaderV1"
+        return "LaminaTopologyHeaderV2"
+
+    def word_count(self):
+        surface_words = sum(self.surfaces[i].index_count for i in range(self.surface_count))
+        return (
+            3 * self.triangle_count
+            + 2 * self.tex_coord_count
+            + surface_words
+            + 3 * self.spring_count
+            + self.node_layer_count
+            + 3 * self.rest_position_count
+        )
 
 
 class ToolCommand(ctypes.Structure):
@@ -189,7 +257,7 @@ def main():
     ap.add_argument("--prefix", default="lamina")
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--press", action="store_true", help="drive the tool: press 8 mm along -y and hold")
-    ap.add_argument("--origin", default="0,0.062,0.12", help="tool start, m, x,y,z (the scene's device_origin)")
+    ap.add_argument("--origin", help="tool start, m, x,y,z (default: the topology's device origin)")
     args = ap.parse_args()
     p = args.prefix
     iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
@@ -206,7 +274,8 @@ def main():
     if args.press:
         tool_pub = pubsub(node, f"{p}/tool", ToolCommand).publisher_builder().create()
         feedback_sub = pubsub(node, f"{p}/feedback", ContactFeedback).subscriber_builder().create()
-    origin = [float(v) for v in args.origin.split(",")]
+    origin = [float(v) for v in args.origin.split(",")] if args.origin else None
+    press_start = None
 
     first_tick = last_seq = last_frame = None
     frames, gaps, stats_seen, commands, feedbacks = 0, 0, 0, 0, 0
@@ -221,12 +290,21 @@ def main():
             h = sample.user_header().contents
             words = sample.payload()
             count = sample.header.number_of_elements
-            assert count == 3 * h.triangle_count + 2 * h.tex_coord_count, "payload length"
+            assert count == h.word_count(), "payload length"
             layers = [bytes(h.layers[i].name).rstrip(b"\0").decode() for i in range(h.layer_count)]
+            grids = [
+                bytes(g.name).rstrip(b"\0").decode() + f" {g.grid_cols}x{g.grid_rows}"
+                for g in h.surfaces[: h.surface_count]
+                if g.grid_cols
+            ]
             node_count = h.node_count
+            if origin is None:
+                origin = list(h.tool.device_origin_m)
             print(
                 f"topology revision {h.revision}: {h.node_count} nodes, {h.triangle_count} triangles, "
-                f"{h.tex_coord_count} texture coordinates, layers {layers}"
+                f"{h.tex_coord_count} texture coordinates, {h.spring_count} springs, layers {layers}, "
+                f"grids {grids}, tool radius {h.tool.radius_m * 1e3:.1f} mm at device origin "
+                f"({origin[0]:.4f}, {origin[1]:.4f}, {origin[2]:.4f}) m"
             )
         # Node frames: wait on the `nodes` event (the core notifies after every frame).
         nodes_listener.timed_wait(iox2.Duration.from_millis(5))
@@ -260,8 +338,9 @@ def main():
                 f"stats {s.sequence}: ticks {s.ticks}, misses {s.misses}, compute p50 {s.compute.p50_ns / 1e3:.1f} us "
                 f"p99 {s.compute.p99_ns / 1e3:.1f} us, period p99 {s.period.p99_ns / 1e3:.1f} us"
             )
-        if tool_pub is not None:
-            t = (now_ns() - start) / 1e9
+        if tool_pub is not None and origin is not None:
+            press_start = press_start or now_ns()
+            t = (now_ns() - press_start) / 1e9
             depth = min(t, 1.0) * 0.008
             cmd = ToolCommand(
                 sequence=commands,

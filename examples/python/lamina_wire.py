@@ -72,6 +72,12 @@ MAX_NOTIFIERS = 4
 # ---------------------------------------------------------------------------------------------
 MAX_LAYERS = 16
 LAYER_NAME_LEN = 32
+MAX_SURFACES = 8
+SURFACE_NAME_LEN = 32
+MODEL_NAME_LEN = 64
+VOLUME_PATH_LEN = 256
+TISSUES = {0: "other", 1: "skin", 2: "fat", 3: "muscle", 4: "bone"}
+"""Tissue codes of `WireLayer.tissue` and `WireSurface.tissue`."""
 
 
 class Position(ctypes.Structure):
@@ -105,23 +111,80 @@ class NodesHeader(ctypes.Structure):
 
 
 class WireLayer(ctypes.Structure):
-    """One layer's name and node range in the topology header."""
+    """One layer in the topology header: name, node range, tissue code. Springs and nodes
+    name their layer by its index in the table."""
 
     _fields_ = [
         ("name", ctypes.c_uint8 * LAYER_NAME_LEN),  # UTF-8, NUL padded
         ("first_node", ctypes.c_uint32),
-        ("node_count", ctypes.c_uint32),
+        ("node_count", ctypes.c_uint32),  # 0 for a layer without nodes
+        ("tissue", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "LaminaWireLayerV1"
+        return "LaminaWireLayerV2"
+
+
+class WireSurface(ctypes.Structure):
+    """One named surface; its node indices are in the payload's surface section."""
+
+    _fields_ = [
+        ("name", ctypes.c_uint8 * SURFACE_NAME_LEN),
+        ("tissue", ctypes.c_uint32),  # tissue just beneath the surface
+        ("grid_cols", ctypes.c_uint32),  # 0: a triangle list
+        ("grid_rows", ctypes.c_uint32),
+        ("index_count", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "LaminaWireSurfaceV1"
+
+
+class WireTool(ctypes.Structure):
+    """The scene's tool and the device-to-model mapping:
+    model = device_origin_m + position_scale * R @ device; device force = force_scale * R.T @ f."""
+
+    _fields_ = [
+        ("source", ctypes.c_uint32),  # 0 none, 1 scripted in the core, 2 haptics process
+        ("reserved", ctypes.c_uint32),
+        ("radius_m", ctypes.c_double),
+        ("min_radius_m", ctypes.c_double),
+        ("stiffness_n_per_m", ctypes.c_double),
+        ("device_origin_m", ctypes.c_double * 3),
+        ("device_rotation", (ctypes.c_double * 3) * 3),  # row-major R
+        ("position_scale", ctypes.c_double),
+        ("force_scale", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "LaminaWireToolV1"
+
+
+class WireVolume(ctypes.Structure):
+    """The scene's volume texture (empty path: the viewer's procedural volume)."""
+
+    _fields_ = [
+        ("path", ctypes.c_uint8 * VOLUME_PATH_LEN),
+        ("origin_m", ctypes.c_double * 3),  # used when flags bit 0 is set
+        ("window", ctypes.c_double * 2),  # used when flags bit 1 is set
+        ("flags", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "LaminaWireVolumeV1"
 
 
 class TopologyHeader(ctypes.Structure):
-    """User header of the `topology` service; the payload is `u32` words:
-    `3 * triangle_count` node indices, then `2 * tex_coord_count` texture coordinates stored
-    as the bits of `f32` values."""
+    """User header of the `topology` service; the payload is `u32` words in seven sections:
+    triangles (3 per), 2D texture coordinates (2 per node, f32 bits), surface indices,
+    springs (2 per), spring layers (1 per spring), node layers (1 per node), rest positions
+    (3 per node, f32 bits). See `decode_topology`."""
 
     _fields_ = [
         ("revision", ctypes.c_uint64),
@@ -129,12 +192,34 @@ class TopologyHeader(ctypes.Structure):
         ("triangle_count", ctypes.c_uint32),
         ("tex_coord_count", ctypes.c_uint32),
         ("layer_count", ctypes.c_uint32),
+        ("surface_count", ctypes.c_uint32),
+        ("spring_count", ctypes.c_uint32),
+        ("node_layer_count", ctypes.c_uint32),
+        ("rest_position_count", ctypes.c_uint32),
+        ("model_name", ctypes.c_uint8 * MODEL_NAME_LEN),
         ("layers", WireLayer * MAX_LAYERS),
+        ("surfaces", WireSurface * MAX_SURFACES),
+        ("tool", WireTool),
+        ("volume", WireVolume),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "LaminaTopologyHeaderV1"
+        return "LaminaTopologyHeaderV2"
+
+    def surface_index_words(self) -> int:
+        return sum(int(s.index_count) for s in self.surfaces[: min(int(self.surface_count), MAX_SURFACES)])
+
+    def word_count(self) -> int:
+        """Payload words this header describes."""
+        return (
+            3 * self.triangle_count
+            + 2 * self.tex_coord_count
+            + self.surface_index_words()
+            + 3 * self.spring_count
+            + self.node_layer_count
+            + 3 * self.rest_position_count
+        )
 
 
 class ToolCommand(ctypes.Structure):
@@ -212,8 +297,11 @@ class StatsSummary(ctypes.Structure):
 WIRE_SIZES = {
     Position: 12,
     NodesHeader: 40,
-    WireLayer: 40,
-    TopologyHeader: 664,
+    WireLayer: 48,
+    WireSurface: 48,
+    WireTool: 144,
+    WireVolume: 304,
+    TopologyHeader: 1704,
     ToolCommand: 88,
     ContactFeedback: 152,
     StatsSummary: 136,
@@ -362,28 +450,90 @@ def positions(sample) -> np.ndarray:
 def topology_words(sample) -> np.ndarray:
     """A copy of a `topology` sample's payload as a `uint32` array (length from the header)."""
     h = sample.user_header().contents
-    words = 3 * h.triangle_count + 2 * h.tex_coord_count
+    words = h.word_count()
     if words == 0:
         return np.zeros(0, dtype=np.uint32)
     view = np.ctypeslib.as_array((ctypes.c_uint32 * words).from_address(sample.payload().as_ptr()))
     return view.copy()
 
 
+def _text(field) -> str:
+    return bytes(field).split(b"\0", 1)[0].decode("utf-8", "replace")
+
+
 def decode_topology(sample) -> dict:
-    """The topology as plain Python: node count, triangles `(T, 3)`, layers, tex coords."""
+    """The topology as plain Python and numpy: the model's name and node count, outer
+    triangles `(T, 3)`, 2D texture coordinates `(N, 2)`, surfaces (grids for Bézier patches,
+    or triangles), springs `(S, 2)` with their layer, each node's layer, rest positions
+    `(N, 3)` in metres, layers with their tissue, the tool and device mapping, the volume."""
     h = sample.user_header().contents
     words = topology_words(sample)
-    t = int(h.triangle_count)
-    layers = []
-    for layer in h.layers[: min(int(h.layer_count), MAX_LAYERS)]:
-        name = bytes(layer.name).split(b"\0", 1)[0].decode("utf-8", "replace")
-        layers.append({"name": name, "first_node": int(layer.first_node), "node_count": int(layer.node_count)})
+    at = 0
+
+    def take(n: int) -> np.ndarray:
+        nonlocal at
+        out = words[at : at + n]
+        at += n
+        return out
+
+    triangles = take(3 * h.triangle_count).reshape(-1, 3)
+    tex_coords = take(2 * h.tex_coord_count).view(np.float32).reshape(-1, 2)
+    surfaces = []
+    for s in h.surfaces[: min(int(h.surface_count), MAX_SURFACES)]:
+        indices = take(int(s.index_count))
+        grid = (int(s.grid_cols), int(s.grid_rows)) if s.grid_cols else None
+        surfaces.append(
+            {
+                "name": _text(s.name),
+                "tissue": TISSUES.get(int(s.tissue), "other"),
+                "grid": grid,
+                "nodes": indices.reshape(grid[1], grid[0]) if grid else indices.reshape(-1, 3),
+            }
+        )
+    springs = take(2 * h.spring_count).reshape(-1, 2)
+    spring_layer = take(h.spring_count)
+    node_layer = take(h.node_layer_count)
+    rest_positions = take(3 * h.rest_position_count).view(np.float32).reshape(-1, 3)
+    layers = [
+        {
+            "name": _text(layer.name),
+            "tissue": TISSUES.get(int(layer.tissue), "other"),
+            "first_node": int(layer.first_node),
+            "node_count": int(layer.node_count),
+        }
+        for layer in h.layers[: min(int(h.layer_count), MAX_LAYERS)]
+    ]
+    t = h.tool
+    tool = {
+        "source": {0: "none", 1: "scripted", 2: "haptics"}.get(int(t.source), "unknown"),
+        "radius_m": float(t.radius_m),
+        "min_radius_m": float(t.min_radius_m),
+        "stiffness_n_per_m": float(t.stiffness_n_per_m),
+        "device_origin_m": np.array(t.device_origin_m[:], dtype=np.float64),
+        "device_rotation": np.array([row[:] for row in t.device_rotation], dtype=np.float64),
+        "position_scale": float(t.position_scale),
+        "force_scale": float(t.force_scale),
+    }
+    v = h.volume
+    volume = {
+        "path": _text(v.path),
+        "origin_m": list(v.origin_m) if v.flags & 1 else None,
+        "window": list(v.window) if v.flags & 2 else None,
+    }
     return {
         "revision": int(h.revision),
+        "name": _text(h.model_name),
         "node_count": int(h.node_count),
-        "triangles": words[: 3 * t].reshape(t, 3),
-        "tex_coords": words[3 * t :].view(np.float32).reshape(-1, 2),
+        "triangles": triangles,
+        "tex_coords": tex_coords,
+        "surfaces": surfaces,
+        "springs": springs,
+        "spring_layer": spring_layer,
+        "node_layer": node_layer,
+        "rest_positions": rest_positions,
         "layers": layers,
+        "tool": tool,
+        "volume": volume,
     }
 
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Reads Lamina's model and node positions over iceoryx2 as numpy arrays.
 
-Receives the topology (node count, surface triangles, layers) and then `--frames` node
+Receives the topology (node count, surface triangles and grids, springs, layers with their
+tissue, rest positions, the tool and device mapping) and then `--frames` node
 frames from `<prefix>/nodes`: each frame's sequence number and node count, and its positions
 as an `(N, 3)` float32 array in metres. Prints a line per second, or with `--json` one JSON
 object at the end (what the workspace test `python_clients` checks).
@@ -52,8 +53,11 @@ def main() -> int:
     sample.delete()
     if not args.json:
         layers = ", ".join(f"{l['name']} ({l['node_count']})" for l in topology["layers"])
-        print(f"topology rev {topology['revision']}: {topology['node_count']} nodes, "
-              f"{len(topology['triangles'])} surface triangles, layers: {layers}")
+        grids = ", ".join(f"{s['name']} {s['grid'][0]}x{s['grid'][1]}" for s in topology["surfaces"] if s["grid"])
+        print(f"topology rev {topology['revision']} of '{topology['name']}': {topology['node_count']} nodes, "
+              f"{len(topology['triangles'])} surface triangles, {len(topology['springs'])} springs, "
+              f"layers: {layers}; grids: {grids}; tool: {topology['tool']['source']}, "
+              f"radius {topology['tool']['radius_m'] * 1e3:.1f} mm")
 
     sequences: list[int] = []
     node_counts: set[int] = set()
@@ -108,6 +112,19 @@ def main() -> int:
             "tex_coord_count": int(len(topology["tex_coords"])),
             "triangle_index_max": int(topology["triangles"].max()) if len(topology["triangles"]) else -1,
             "layers": topology["layers"],
+            "name": topology["name"],
+            "surfaces": [{"name": s["name"], "tissue": s["tissue"], "grid": s["grid"]} for s in topology["surfaces"]],
+            "spring_count": int(len(topology["springs"])),
+            "spring_index_max": int(topology["springs"].max()) if len(topology["springs"]) else -1,
+            "spring_layer_tissues": sorted({topology["layers"][int(l)]["tissue"] for l in np.unique(topology["spring_layer"])}),
+            "rest_positions_shape": list(topology["rest_positions"].shape),
+            # How far the first frame is from the rest positions the topology carries, m.
+            "rest_to_first_frame_max_m": float(np.abs(first - topology["rest_positions"]).max())
+            if first is not None and topology["rest_positions"].shape == first.shape
+            else None,
+            "tool_source": topology["tool"]["source"],
+            "tool_radius_m": topology["tool"]["radius_m"],
+            "device_origin_m": topology["tool"]["device_origin_m"].tolist(),
         },
         "frames": len(sequences),
         "sequence_first": int(seq[0]),

@@ -21,6 +21,7 @@
 //! Architecture invariant: the haptics process knows nothing of the physics. It sees a tool
 //! pose, a force and a stiffness.
 
+pub mod core_model;
 pub mod device;
 mod device_loop;
 mod mapping;

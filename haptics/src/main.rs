@@ -12,6 +12,7 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, bail};
 use clap::Parser;
 use lamina_bridge::{Bridge, BridgeConfig};
+use lamina_haptics::core_model::wait_for_core_model;
 use lamina_haptics::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
 use lamina_haptics::run_context::{ModelSeen, RunContext, SceneFile, TopologyWatch};
 use lamina_haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
@@ -40,10 +41,15 @@ struct Args {
     /// SIGINT/SIGTERM.
     #[arg(long)]
     seconds: Option<f64>,
-    /// Model position of the device's workspace centre, m, as `x,y,z` (the scene's
-    /// `effects.tool.device_origin`).
-    #[arg(long, default_value = "0,0,0", value_parser = parse_vec3)]
-    origin: [f64; 3],
+    /// Model position of the device's workspace centre, m, as `x,y,z`, with the device's
+    /// axes on a y-up model and scales 1. Default: the mapping the core's model message
+    /// carries (the scene's `effects.tool` device_origin, device_scale and force_scale),
+    /// waited for up to --wait-core-s.
+    #[arg(long, value_parser = parse_vec3)]
+    origin: Option<[f64; 3]>,
+    /// How long to wait for the core's model when --origin is not given, s.
+    #[arg(long, default_value_t = 30.0)]
+    wait_core_s: f64,
     /// Tool tip radius sent to the core, m; 0 uses the scene's.
     #[arg(long, default_value_t = 0.0)]
     tool_radius: f64,
@@ -259,6 +265,26 @@ fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
     out.flush()
 }
 
+/// The mapping the core's model message carries; says what it uses.
+fn device_mapping_from_core(args: &Args, bridge: &Bridge) -> anyhow::Result<DeviceMapping> {
+    if !(args.wait_core_s.is_finite() && args.wait_core_s >= 0.0) {
+        bail!("--wait-core-s {}: must be a finite number of seconds, 0 or more", args.wait_core_s);
+    }
+    let wait = std::time::Duration::from_secs_f64(args.wait_core_s);
+    let model = wait_for_core_model(bridge, &args.prefix, wait, &STOP)?;
+    let m = model.mapping();
+    if !args.quiet {
+        println!(
+            "core model '{}' ({} nodes): device origin {:?} m, position scale {}, force scale {}",
+            model.name, model.nodes, m.origin_m, m.position_scale, m.force_scale
+        );
+    }
+    if !model.tool_follows_haptics() {
+        tracing::warn!("the core's scene does not drive its tool from a haptics process: its force will stay zero");
+    }
+    Ok(m)
+}
+
 fn run(args: &Args) -> anyhow::Result<bool> {
     let (mut device, script_s) = open_device(&args.device, &args.device_args)
         .map_err(anyhow::Error::msg)
@@ -273,6 +299,10 @@ fn run(args: &Args) -> anyhow::Result<bool> {
     }
     let bridge = Bridge::open(&BridgeConfig::with_prefix(&args.prefix)).context("bridge")?;
     let _ = install_stop_handler(&STOP);
+    let mapping = match args.origin {
+        Some(origin) => DeviceMapping::y_up_model(origin),
+        None => device_mapping_from_core(args, &bridge)?,
+    };
     let (tx, rx) = crossbeam::channel::bounded::<SafetyEvent>(1024);
     let quiet = args.quiet;
     let logger = std::thread::spawn(move || {
@@ -300,7 +330,7 @@ fn run(args: &Args) -> anyhow::Result<bool> {
     };
     let cfg = HapticsConfig {
         rate_hz: args.rate_hz,
-        mapping: DeviceMapping::y_up_model(args.origin),
+        mapping,
         tool_radius_m: args.tool_radius,
         max_force_n: args.max_force,
         trace_capacity,

@@ -38,6 +38,34 @@ impl DeviceMapping {
         }
     }
 
+    /// The mapping the core's topology message carries (the scene's `device_origin`,
+    /// `device_scale` and `force_scale`, and the model's axes).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use lamina_bridge::WireTool;
+    /// use lamina_haptics::DeviceMapping;
+    ///
+    /// let tool = WireTool {
+    ///     device_origin_m: [0.0, 0.1, 0.0],
+    ///     device_rotation: [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
+    ///     position_scale: 2.0,
+    ///     force_scale: 1.0,
+    ///     ..WireTool::default()
+    /// };
+    /// // 1 cm up on the device is 2 cm up (model y) in the model.
+    /// assert_eq!(DeviceMapping::from_wire(&tool).to_model([0.0, 0.0, 0.01]), [0.0, 0.12, 0.0]);
+    /// ```
+    pub fn from_wire(tool: &lamina_bridge::WireTool) -> Self {
+        Self {
+            origin_m: tool.device_origin_m,
+            rotation: tool.device_rotation,
+            position_scale: tool.position_scale,
+            force_scale: tool.force_scale,
+        }
+    }
+
     fn rotate(&self, v: [f64; 3]) -> [f64; 3] {
         let r = &self.rotation;
         [0, 1, 2].map(|i| r[i][0] * v[0] + r[i][1] * v[1] + r[i][2] * v[2])

@@ -130,6 +130,8 @@ fn haptics_process_with_vanishing_plugin_exits_with_clear_error_fails() {
         .arg("--device")
         .arg(format!("plugin:{}", plugin().display()))
         .args(["--device-args", "disconnect_after=400"])
+        // No core runs here: the mapping is given instead of waited for.
+        .args(["--origin", "0,0,0"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -146,4 +148,24 @@ fn haptics_process_with_vanishing_plugin_exits_with_clear_error_fails() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("libsim_ok.so") && err.contains("no device on the USB bus"), "{err}");
+}
+
+#[test]
+fn haptics_process_without_core_or_origin_names_the_prefix_fails() {
+    let prefix = format!("t_nocore_{}", std::process::id());
+    let out = Command::new(env!("CARGO_BIN_EXE_lamina-haptics"))
+        .args(["--prefix", &prefix, "--fifo", "0", "--quiet", "--seconds", "5", "--wait-core-s", "0.5"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("no Lamina core published its model on prefix '{prefix}'")), "{err}");
+    assert!(err.contains("--origin"), "says how to run without a core: {err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_lamina-haptics"))
+        .args(["--prefix", &prefix, "--fifo", "0", "--quiet", "--wait-core-s", "nan"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--wait-core-s"), "{err}");
 }

@@ -3,6 +3,9 @@
 //! press computed offline; the force falling to zero when the core goes quiet; a device that
 //! disappears; corrupt tool commands. Timing bounds here are safety requirements (force to
 //! zero within 5 ms of the core's last message), measured on the device loop's own trace.
+//! The haptics process gets no scene and no mapping flags: it maps the device onto the model
+//! as the core's model message says, which the offline comparison checks against the scene.
+//! A core running a model file (not the built-in scene) is felt the same way.
 
 use lamina_bridge::wire::ToolCommand;
 use lamina_bridge::{Bridge, BridgeConfig, FeedbackSubscriber, ToolPublisher};
@@ -72,10 +75,11 @@ fn start_core(prefix: &str, seconds: f64) -> Child {
         .expect("starting lamina run")
 }
 
+/// `lamina-haptics` with no scene and no mapping flags: it takes the device mapping from the
+/// core's model message.
 fn haptics(prefix: &str, device: &str, dir: &Path, extra: &[&str]) -> Command {
-    let o = device_origin();
     let mut cmd = Command::new(workspace_bin("lamina-haptics"));
-    cmd.args(["--prefix", prefix, "--device", device, "--origin", &format!("{},{},{}", o[0], o[1], o[2])])
+    cmd.args(["--prefix", prefix, "--device", device])
         .args(["--quiet", "--cpu", "0", "--report"])
         .arg(dir.join("haptics.json"))
         .arg("--trace-csv")
@@ -84,6 +88,19 @@ fn haptics(prefix: &str, device: &str, dir: &Path, extra: &[&str]) -> Command {
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     cmd
+}
+
+/// Runs the scripted `trajectory` through `lamina-haptics` against `core` (started a second
+/// before), both to their end; the core's output.
+fn press_against(core: Child, prefix: &str, trajectory: &Path, dir: &Path) -> String {
+    std::thread::sleep(Duration::from_millis(1000));
+    let device = format!("scripted:{}", trajectory.display());
+    let h = haptics(prefix, &device, dir, &["--seconds", "5.3"]).spawn().expect("starting lamina-haptics");
+    let (status, out, err) = output(h, Duration::from_secs(60), "lamina-haptics");
+    assert!(status.success(), "lamina-haptics failed: {out}\n{err}");
+    let (status, core_out, _) = output(core, Duration::from_secs(60), "lamina run");
+    assert!(status.success(), "lamina run failed: {core_out}");
+    core_out
 }
 
 /// One row of the haptics trace.
@@ -165,14 +182,7 @@ fn press_force_at_device_matches_offline_static_contact_works() {
     let prefix = unique_prefix("press");
     let traj = press(0.008);
     let file = write_trajectory(&dir, &traj);
-    let core = start_core(&prefix, 8.0);
-    std::thread::sleep(Duration::from_millis(1000));
-    let device = format!("scripted:{}", file.display());
-    let h = haptics(&prefix, &device, &dir, &["--seconds", "5.3"]).spawn().expect("starting lamina-haptics");
-    let (status, out, err) = output(h, Duration::from_secs(60), "lamina-haptics");
-    assert!(status.success(), "lamina-haptics failed: {out}\n{err}");
-    let (status, core_out, _) = output(core, Duration::from_secs(60), "lamina run");
-    assert!(status.success(), "lamina run failed: {core_out}");
+    let core_out = press_against(start_core(&prefix, 8.0), &prefix, &file, &dir);
     assert!(core_out.contains("0 refused"), "{core_out}");
 
     let rows = read_trace(&dir.join("trace.csv"));
@@ -414,4 +424,48 @@ fn grasp_and_pull_lifts_skin_and_device_feels_it_works() {
     // Released: the tool lets go, no force once it is clear of the skin.
     let after = at(3.45, 3.6);
     assert!(after.iter().all(|r| r.force == [0.0; 3]), "released: no force");
+}
+
+#[test]
+fn core_on_a_model_file_is_felt_without_scene_or_mapping_flags_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch("hap_file");
+    let prefix = unique_prefix("file");
+    // A 30 x 8 limb written by the generator, run from a scene that names the file and keeps
+    // the built-in scene's haptic tool (device origin one tool radius above the skin's top).
+    let out = Command::new(workspace_bin("lamina"))
+        .current_dir(&dir)
+        .args(["generate", "--cylinder", "30x8", "--length", "0.24", "--out", "limb30x8.xml"])
+        .output()
+        .expect("running lamina generate");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = lamina_core::scene::DEFAULT_SCENE_TOML;
+    let (start, end) = (text.find("[model]").unwrap(), text.find("[solver]").unwrap());
+    let scene = format!("{}[model]\nkind = \"file\"\npath = \"limb30x8.xml\"\n\n{}", &text[..start], &text[end..]);
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let file = write_trajectory(&dir, &press(0.006));
+    let core = Command::new(workspace_bin("lamina"))
+        .args(["run", "--quiet", "--prefix", &prefix, "--seconds", "8", "--scene"])
+        .arg(dir.join("scene.toml"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("starting lamina run");
+    press_against(core, &prefix, &file, &dir);
+    let rows = read_trace(&dir.join("trace.csv"));
+    // Contact begins where the scene puts the skin: the device at its workspace centre
+    // (z = 0) is the tool just touching. The core is up to a tick behind the 4 kHz script,
+    // and the skin's point shell is sampled at half the tool radius, so within 1.5 mm.
+    let first = rows.iter().find(|r| r.force[2] > 0.0).expect("the press touched the skin");
+    eprintln!("file model: first contact at device z {:.4} m", first.z);
+    assert!((-0.0015..=0.0005).contains(&first.z), "first contact at device z {} m", first.z);
+    // Deeper, more force: half depth against the hold.
+    let mean_z_force = |lo: f64, hi: f64| {
+        let r: Vec<&Row> = rows.iter().filter(|r| r.gain == 1.0 && (lo..hi).contains(&r.z)).collect();
+        assert!(!r.is_empty(), "no unfaded rows with device z in {lo}..{hi}");
+        mean_force(&r)[2]
+    };
+    let (half, full) = (mean_z_force(-0.0032, -0.0028), mean_z_force(-0.00601, -0.00599));
+    eprintln!("file model: force {half:.4} N at 3 mm, {full:.4} N at 6 mm");
+    assert!(half > 0.0 && full > 1.5 * half, "force rises with depth: {half} N at 3 mm, {full} N at 6 mm");
 }

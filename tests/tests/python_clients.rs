@@ -86,6 +86,17 @@ fn f64s(v: &Value) -> Vec<f64> {
 }
 
 /// The node count `lamina run` prints: "scene 'NAME' (SOURCE): N nodes, ...".
+/// The built-in scene's tool: radius (m) and device origin (m), read from the scene.
+fn model_tool() -> (f64, [f64; 3]) {
+    let tool = Scene::builtin_default().tool.expect("the default scene has a tool");
+    match tool.source {
+        lamina_core::scene::ToolSource::Haptics { device_origin, .. } => (tool.radius, device_origin),
+        lamina_core::scene::ToolSource::Scripted { .. } => {
+            panic!("the default scene's tool follows the haptics process")
+        }
+    }
+}
+
 fn printed_node_count(core_out: &str) -> u64 {
     let line = core_out.lines().find(|l| l.starts_with("scene '")).unwrap_or_else(|| panic!("{core_out}"));
     let words: Vec<&str> = line.split_whitespace().collect();
@@ -217,6 +228,35 @@ fn python_subscriber_and_haptic_driver_against_lamina_run_works() {
         sub["topology"]["layers"].as_array().unwrap().iter().map(|l| l["node_count"].as_u64().unwrap()).sum();
     assert_eq!(layer_nodes, n, "the layers cover every node: {sub}");
     assert_eq!(sub["topology"]["layers"][0]["name"], "skin", "{sub}");
+    // The whole model comes over the wire: springs, tissue boundary grids, each layer's
+    // tissue (muscle too, which has springs but no nodes of its own), rest positions, the
+    // scene's tool.
+    let t = &sub["topology"];
+    assert_eq!(t["name"], model.name.as_str(), "{sub}");
+    assert_eq!(t["spring_count"].as_u64(), Some(model.springs.len() as u64), "{sub}");
+    assert!(t["spring_index_max"].as_u64().is_some_and(|i| i < n), "{sub}");
+    assert_eq!(t["spring_layer_tissues"], serde_json::json!(["fat", "muscle", "skin"]), "{sub}");
+    let grids: Vec<(String, Value)> = t["surfaces"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s["name"].as_str().unwrap().to_owned(), s["grid"].clone()))
+        .collect();
+    let expected_grids: Vec<(String, Value)> = model
+        .surfaces
+        .iter()
+        .map(|s| (s.name.clone(), s.grid.as_ref().map_or(Value::Null, |(c, r, _)| serde_json::json!([c, r]))))
+        .collect();
+    assert_eq!(grids, expected_grids, "{sub}");
+    assert_eq!(t["rest_positions_shape"], serde_json::json!([n, 3]), "{sub}");
+    // No gravity and the tool parked: the first frame is the rest state up to the limb's
+    // settling under its own springs (0.4 mm measured; a wrong or shuffled rest position would
+    // be centimetres off).
+    assert!(t["rest_to_first_frame_max_m"].as_f64().is_some_and(|d| d < 2e-3), "{sub}");
+    let tool = model_tool();
+    assert_eq!(t["tool_source"], "haptics", "{sub}");
+    assert!((t["tool_radius_m"].as_f64().unwrap() - tool.0).abs() < 1e-12, "{sub}");
+    assert_eq!(t["device_origin_m"], serde_json::json!(tool.1), "{sub}");
     assert_eq!(sub["frames"].as_u64(), Some(2000));
     assert_eq!(sub["sequence_increasing"], true, "{sub}");
     let (first, last) = (sub["sequence_first"].as_u64().unwrap(), sub["sequence_last"].as_u64().unwrap());

@@ -33,9 +33,10 @@ use crate::render::{
 use crate::scene_mesh::SceneMesh;
 use crate::timing::{FrameTiming, elapsed_ns};
 use crate::view_model::{Frame, TissueSet, ViewModel};
+use crate::volume::{PROCEDURAL_VOXELS, VolumeImage, bake_procedural, read_nifti};
 
 /// How the viewer draws. `Default`: 320 × 240, 4× MSAA, paper's φ, cut on, springs on the
-/// removed side, overlay on.
+/// removed side, overlay on, volume texture on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewerOptions {
     /// Image width, pixels.
@@ -53,6 +54,9 @@ pub struct ViewerOptions {
     /// A close view of one spot instead of the default view of the whole model (the cut
     /// plane stays the default one).
     pub focus: Option<Focus>,
+    /// Whether to draw the volume texture on the tissue (the model's volume, else a
+    /// procedural one baked at the first frame); off: each tissue's flat colour.
+    pub texture: bool,
 }
 
 impl Default for ViewerOptions {
@@ -65,6 +69,7 @@ impl Default for ViewerOptions {
             cut: true,
             overlay: true,
             focus: None,
+            texture: true,
         }
     }
 }
@@ -87,6 +92,14 @@ pub struct Composer {
     /// The cut plane of the last composed frame.
     cut: Option<CutPlane>,
     builder: MeshBuilder,
+    /// The volume texture (read at [`Composer::set_model`] or baked when first drawn).
+    volume: Option<VolumeImage>,
+    /// Why the model's volume file could not be used (the procedural volume is drawn).
+    volume_error: Option<String>,
+    /// How long baking the procedural volume took, ns (0: not baked).
+    bake_ns: u64,
+    /// Whether the last composed frame draws the volume texture.
+    texture: bool,
     /// The last tessellated mesh.
     pub mesh: SceneMesh,
     /// Background triangles of the last frame.
@@ -97,10 +110,34 @@ pub struct Composer {
 
 impl Composer {
     /// Uses `model` from now on; the view is fixed again from its next frame.
+    /// Reads the model's volume file, if it names one; when that fails the error is kept
+    /// ([`Composer::volume_error`]) and the procedural volume is drawn instead.
     pub fn set_model(&mut self, model: ViewModel) {
+        (self.volume, self.volume_error, self.bake_ns) = (None, None, 0);
+        if let Some(spec) = &model.volume {
+            match read_nifti(spec) {
+                Ok(v) => self.volume = Some(v),
+                Err(e) => self.volume_error = Some(e.to_string()),
+            }
+        }
         self.model = Some(model);
         self.view = None;
         self.plane = None;
+    }
+
+    /// Why the model's volume file could not be used, if it could not.
+    pub fn volume_error(&self) -> Option<&str> {
+        self.volume_error.as_deref()
+    }
+
+    /// The volume texture the last composed frame draws (`None`: texture off).
+    pub fn drawn_volume(&self) -> Option<&VolumeImage> {
+        self.volume.as_ref().filter(|_| self.texture)
+    }
+
+    /// How long baking the procedural volume took, ns (0 if it was not baked).
+    pub fn volume_bake_ns(&self) -> u64 {
+        self.bake_ns
     }
 
     /// The current model.
@@ -132,8 +169,19 @@ impl Composer {
     ) -> u64 {
         let start = Instant::now();
         let aspect = width as f32 / height.max(1) as f32;
-        if let Some(model) = &self.model {
+        if let Some(model) = &mut self.model {
             let nodes = &frame.positions[..model.node_count.min(frame.positions.len())];
+            if model.rest_positions.len() < model.node_count && nodes.len() == model.node_count {
+                // No rest positions given: the first frame's are the rest.
+                model.rest_positions = nodes.to_vec();
+            }
+            self.texture = options.texture != state.is_some_and(|s| s.texture_toggled);
+            if self.texture && self.volume.is_none() && !model.rest_positions.is_empty() {
+                let start = Instant::now();
+                let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+                self.volume = bake_procedural(model, &model.rest_positions, PROCEDURAL_VOXELS, threads);
+                self.bake_ns = elapsed_ns(start);
+            }
             if self.view.is_none()
                 && let Some((min, max)) = bounds(nodes)
             {
@@ -245,6 +293,7 @@ impl HeadlessViewer {
             cut,
             background: &self.composer.background,
             overlay: &self.composer.overlay,
+            volume: self.composer.drawn_volume(),
         };
         self.renderer.draw(&self.gpu, self.target.view(), &input);
         wait_idle(&self.gpu);

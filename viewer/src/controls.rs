@@ -49,6 +49,7 @@ pub const BINDINGS: &[Binding] = &[
     Binding { input: "C", action: "cut plane on or off" },
     Binding { input: "[ ]", action: "move the cut plane back or forward (2 % of the model length)" },
     Binding { input: "W", action: "wireframe (the triangle edges) on or off" },
+    Binding { input: "T", action: "volume texture on or off (off: each tissue's flat colour)" },
     Binding { input: "Space", action: "pause or resume the drawing (the core keeps running)" },
     Binding { input: "S", action: "screenshot: a PNG in the output directory (path printed)" },
     Binding { input: "?", action: "show or hide this key list" },
@@ -135,11 +136,22 @@ pub struct ViewState {
     pub paused: bool,
     /// Key list shown.
     pub help: bool,
+    /// The volume texture switched from what the options say (on ↔ off) by the key `T`.
+    pub texture_toggled: bool,
 }
 
 impl Default for ViewState {
     fn default() -> Self {
-        Self { camera: None, hidden_layers: 0, cut: true, cut_steps: 0, wireframe: false, paused: false, help: false }
+        Self {
+            camera: None,
+            hidden_layers: 0,
+            cut: true,
+            cut_steps: 0,
+            wireframe: false,
+            paused: false,
+            help: false,
+            texture_toggled: false,
+        }
     }
 }
 
@@ -235,6 +247,7 @@ impl Controls {
             "[" => s.cut_steps = (s.cut_steps - 1).max(-50),
             "]" => s.cut_steps = (s.cut_steps + 1).min(50),
             "w" => s.wireframe = !s.wireframe,
+            "t" => s.texture_toggled = !s.texture_toggled,
             "space" | " " => s.paused = !s.paused,
             "?" => s.help = !s.help,
             _ => {
@@ -431,6 +444,8 @@ mod tests {
         assert_eq!(c.state.cut_steps, 1);
         feed(&mut c, &[Input::Key("?".into())]);
         assert!(c.state.help);
+        feed(&mut c, &[Input::Key("t".into())]);
+        assert!(c.state.texture_toggled);
     }
 
     #[test]

@@ -71,38 +71,65 @@ pub fn section_loop(
     samples_per_cell: usize,
     steps_per_cell: usize,
 ) -> SectionLoop {
+    section_loop_with_rest(grid, patches, patches, plane, samples_per_cell, steps_per_cell).0
+}
+
+/// As [`section_loop`], and the same points on `rest_patches` (the boundary at rest, same
+/// layout): each crossing's rest position is interpolated with the crossing's own patch
+/// parameters and weights, so a texture fixed at rest positions follows the cut face.
+pub fn section_loop_with_rest(
+    grid: &CellLayout,
+    patches: &[Patch],
+    rest_patches: &[Patch],
+    plane: &CutPlane,
+    samples_per_cell: usize,
+    steps_per_cell: usize,
+) -> (SectionLoop, SectionLoop) {
     let (cc, cr) = (grid.cols, grid.rows);
     let mut out = Vec::with_capacity(cc * samples_per_cell + 1);
+    let mut rest = Vec::with_capacity(cc * samples_per_cell + 1);
     for c in 0..cc {
         let last_sample = if c + 1 == cc && !grid.wrap { samples_per_cell } else { samples_per_cell - 1 };
         for s in 0..=last_sample {
             let u = s as f32 / samples_per_cell as f32;
-            out.push(column_crossing(patches, c, cc, cr, u, plane, steps_per_cell));
+            let (p, r) = column_crossing(patches, rest_patches, c, cc, cr, u, plane, steps_per_cell).unzip();
+            out.push(p);
+            rest.push(r);
         }
     }
-    out
+    (out, rest)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn column_crossing(
     patches: &[Patch],
+    rest_patches: &[Patch],
     c: usize,
     cc: usize,
     cr: usize,
     u: f32,
     plane: &CutPlane,
     steps: usize,
-) -> Option<Vec3> {
+) -> Option<(Vec3, Vec3)> {
+    let (mut prev_patch, mut prev_v) = (c, 0.0);
     let mut prev = patches[c].eval(u, 0.0);
     let mut prev_d = plane.distance(prev);
     for r in 0..cr {
-        let patch = &patches[r * cc + c];
+        let k_patch = r * cc + c;
+        let patch = &patches[k_patch];
         for k in 1..=steps {
-            let p = patch.eval(u, k as f32 / steps as f32);
+            let v = k as f32 / steps as f32;
+            let p = patch.eval(u, v);
             let d = plane.distance(p);
             if (prev_d <= 0.0) != (d <= 0.0) {
-                return Some(prev.lerp(p, prev_d / (prev_d - d)));
+                let w = prev_d / (prev_d - d);
+                let rest = match (rest_patches.get(prev_patch), rest_patches.get(k_patch)) {
+                    (Some(a), Some(b)) => a.eval(u, prev_v).lerp(b.eval(u, v), w),
+                    _ => prev.lerp(p, w),
+                };
+                return Some((prev.lerp(p, w), rest));
             }
-            (prev, prev_d) = (p, d);
+            (prev, prev_d, prev_patch, prev_v) = (p, d, k_patch, v);
         }
     }
     None
@@ -135,11 +162,12 @@ pub fn end_loop(grid: &CellLayout, patches: &[Patch], end: End, samples_per_cell
 }
 
 /// Appends the cut faces between nested `loops` (outermost first, each with the tissue beneath
-/// it) to `mesh`. `closed` joins the last point to the first; `normal` is the face normal;
+/// it and the same points at rest, which become the vertices' 3D texture coordinates) to
+/// `mesh`. `closed` joins the last point to the first; `normal` is the face normal;
 /// `clip` says whether the faces are themselves subject to the cut plane in the shader.
 /// Bands of `hidden` tissues are left open.
 pub fn fill_section(
-    loops: &[(Tissue, SectionLoop)],
+    loops: &[(Tissue, SectionLoop, SectionLoop)],
     closed: bool,
     normal: Vec3,
     clip: bool,
@@ -151,53 +179,78 @@ pub fn fill_section(
         return;
     }
     let segments = if closed { len } else { len - 1 };
-    for (k, (tissue, outer)) in loops.iter().enumerate() {
-        let inner: SectionLoop = match loops.get(k + 1) {
-            Some((_, inner)) => inner.clone(),
+    for (k, (tissue, outer, outer_rest)) in loops.iter().enumerate() {
+        let outer = Ring { at: outer, rest: outer_rest };
+        let (inner, inner_rest): (SectionLoop, SectionLoop) = match loops.get(k + 1) {
+            Some((_, inner, inner_rest)) => (inner.clone(), inner_rest.clone()),
             None => {
-                // Innermost: shrink toward the loop's centroid (bone cortex around marrow).
-                let present: Vec<Vec3> = outer.iter().flatten().copied().collect();
+                // Innermost: shrink toward the loop's centroid (bone cortex around marrow);
+                // the rest loop shrinks with the same weights.
+                let present: Vec<(Vec3, Vec3)> =
+                    outer.at.iter().zip(outer.rest).filter_map(|(p, r)| Some((*p)?).zip(*r)).collect();
                 if present.is_empty() {
                     continue;
                 }
-                let centroid = present.iter().copied().sum::<Vec3>() / present.len() as f32;
-                let core: SectionLoop = outer.iter().map(|p| p.map(|p| centroid.lerp(p, 0.55))).collect();
+                let n = present.len() as f32;
+                let centroid = present.iter().map(|p| p.0).sum::<Vec3>() / n;
+                let centroid_rest = present.iter().map(|p| p.1).sum::<Vec3>() / n;
+                let core: SectionLoop = outer.at.iter().map(|p| p.map(|p| centroid.lerp(p, 0.55))).collect();
+                let core_rest: SectionLoop =
+                    outer.rest.iter().map(|p| p.map(|p| centroid_rest.lerp(p, 0.55))).collect();
                 let marrow = if *tissue == Tissue::Bone { Material::marrow() } else { Material::cut_face(*tissue) };
                 if !hidden.contains(*tissue) {
-                    fan(&core, centroid, segments, normal, marrow, clip, mesh);
+                    let ring = Ring { at: &core, rest: &core_rest };
+                    fan(ring, (centroid, centroid_rest), segments, normal, marrow, clip, mesh);
                 }
-                core
+                (core, core_rest)
             }
         };
         if hidden.contains(*tissue) {
             continue;
         }
-        band(outer, &inner, segments, normal, Material::cut_face(*tissue), clip, mesh);
+        let inner = Ring { at: &inner, rest: &inner_rest };
+        band(outer, inner, segments, normal, Material::cut_face(*tissue), clip, mesh);
     }
 }
 
-fn vertex(p: Vec3, normal: Vec3, material: Material, clip: bool) -> LitVertex {
+/// A section loop with its rest positions.
+#[derive(Clone, Copy)]
+struct Ring<'a> {
+    at: &'a SectionLoop,
+    rest: &'a SectionLoop,
+}
+
+impl Ring<'_> {
+    fn get(&self, i: usize) -> Option<(Vec3, Vec3)> {
+        self.at.get(i).copied().flatten().zip(self.rest.get(i).copied().flatten())
+    }
+}
+
+fn vertex((p, rest): (Vec3, Vec3), normal: Vec3, material: Material, clip: bool) -> LitVertex {
     LitVertex {
         position: p.to_array(),
         normal: normal.to_array(),
         color: material.linear_rgba(),
         params: [material.shininess, if clip { 1.0 } else { 0.0 }],
+        rest: rest.extend(1.0).to_array(),
     }
 }
 
 fn band(
-    outer: &SectionLoop,
-    inner: &SectionLoop,
+    outer: Ring<'_>,
+    inner: Ring<'_>,
     segments: usize,
     normal: Vec3,
     material: Material,
     clip: bool,
     mesh: &mut SceneMesh,
 ) {
-    let len = outer.len();
+    let len = outer.at.len();
     for i in 0..segments {
         let j = (i + 1) % len;
-        let (Some(a), Some(b), Some(c), Some(d)) = (outer[i], outer[j], inner[j], inner[i]) else { continue };
+        let (Some(a), Some(b), Some(c), Some(d)) = (outer.get(i), outer.get(j), inner.get(j), inner.get(i)) else {
+            continue;
+        };
         let base = mesh.vertices.len() as u32;
         for p in [a, b, c, d] {
             mesh.vertices.push(vertex(p, normal, material, clip));
@@ -207,20 +260,20 @@ fn band(
 }
 
 fn fan(
-    ring: &SectionLoop,
-    centre: Vec3,
+    ring: Ring<'_>,
+    centre: (Vec3, Vec3),
     segments: usize,
     normal: Vec3,
     material: Material,
     clip: bool,
     mesh: &mut SceneMesh,
 ) {
-    let len = ring.len();
+    let len = ring.at.len();
     let base = mesh.vertices.len() as u32;
     mesh.vertices.push(vertex(centre, normal, material, clip));
     for i in 0..segments {
         let j = (i + 1) % len;
-        let (Some(a), Some(b)) = (ring[i], ring[j]) else { continue };
+        let (Some(a), Some(b)) = (ring.get(i), ring.get(j)) else { continue };
         let k = mesh.vertices.len() as u32;
         mesh.vertices.push(vertex(a, normal, material, clip));
         mesh.vertices.push(vertex(b, normal, material, clip));

@@ -31,4 +31,5 @@ pub mod source;
 pub mod synthetic;
 pub mod timing;
 pub mod view_model;
+pub mod volume;
 pub mod window;

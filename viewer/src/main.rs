@@ -75,9 +75,10 @@ struct Args {
     /// Write every Nth frame to --out.
     #[arg(long, default_value_t = 1)]
     every: u64,
-    /// Scene file the core runs (TOML): supplies grids and springs the wire does not carry.
-    /// Default: the built-in default scene, used when its node count matches the core's.
-    #[arg(long)]
+    /// With --replay: the scene the recording was made with (TOML), whose grids and springs
+    /// are drawn. Default: the built-in default scene. A live core needs none: its topology
+    /// message carries the whole model.
+    #[arg(long, requires = "replay")]
     scene: Option<PathBuf>,
     /// Samples per pixel: 1 or 4.
     #[arg(long, default_value_t = 4, value_parser = parse_samples)]
@@ -102,6 +103,14 @@ struct Args {
     /// No text overlay.
     #[arg(long)]
     no_overlay: bool,
+    /// No volume texture: each tissue in its flat colour (key T switches it in the window).
+    #[arg(long)]
+    no_texture: bool,
+    /// Volume texture: a NIfTI-1 file (.nii or .nii.gz), placed by its header's origin and
+    /// spacing, drawn through its full intensity range (a scene's [visual] table can say more).
+    /// Default: the scene's [visual] volume, else a procedural one.
+    #[arg(long, value_name = "FILE")]
+    volume: Option<PathBuf>,
     /// Give up after waiting this long for the core without receiving anything, seconds
     /// (default: wait forever).
     #[arg(long)]
@@ -168,6 +177,7 @@ fn options(args: &Args) -> ViewerOptions {
         },
         cut: !args.no_cut,
         overlay: !args.no_overlay,
+        texture: !args.no_texture,
         focus: args.focus.map(|[x, y, z, span_m]| lamina_viewer::camera::Focus {
             target: glam::Vec3::new(x, y, z),
             from: glam::Vec3::from_array(args.focus_from),
@@ -176,31 +186,36 @@ fn options(args: &Args) -> ViewerOptions {
     }
 }
 
-/// The full model for the live source: the scene the core runs.
-fn reference_model(args: &Args) -> anyhow::Result<ViewModel> {
+/// The model a recording was made with: the scene's.
+fn replay_model(args: &Args) -> anyhow::Result<ViewModel> {
     use lamina_core::scene::Scene;
     let scene = match &args.scene {
         Some(path) => Scene::load(path)?,
         None => Scene::builtin_default(),
     };
     let model = scene.build_model()?;
-    Ok(ViewModel::from_core_model(&model))
+    let mut view = ViewModel::from_core_model(&model);
+    view.volume = lamina_viewer::view_model::VolumeSpec::from_scene(&scene);
+    Ok(view)
 }
 
 fn open_source(args: &Args) -> anyhow::Result<Box<dyn FrameSource>> {
+    let source = open_model_source(args)?;
+    let Some(path) = &args.volume else { return Ok(source) };
+    lamina_viewer::volume::read_nifti_header(path).map_err(anyhow::Error::msg)?;
+    let spec = lamina_viewer::view_model::VolumeSpec { path: path.clone(), ..Default::default() };
+    Ok(Box::new(lamina_viewer::volume::WithVolume::new(source, spec)))
+}
+
+fn open_model_source(args: &Args) -> anyhow::Result<Box<dyn FrameSource>> {
     if args.synthetic {
         return Ok(Box::new(SyntheticSource::default()));
     }
     if let Some(pvd) = &args.replay {
-        let model = reference_model(args)?;
+        let model = replay_model(args)?;
         return Ok(Box::new(lamina_viewer::replay::ReplaySource::open(pvd, model)?));
     }
-    let reference = match reference_model(args) {
-        Ok(m) => Some(m),
-        Err(e) if args.scene.is_some() => return Err(e),
-        Err(_) => None,
-    };
-    Ok(Box::new(LiveSource::open(&args.prefix, reference)?))
+    Ok(Box::new(LiveSource::open(&args.prefix)?))
 }
 
 /// Rolling figures for the overlay and the exit report.
@@ -275,6 +290,9 @@ fn run_headless(args: &Args, source: &mut dyn FrameSource) -> anyhow::Result<()>
                 );
                 model_name.clone_from(&model.name);
                 viewer.set_model(model);
+                if let Some(e) = viewer.composer().volume_error() {
+                    return Err(anyhow::anyhow!("{e}"));
+                }
             }
             SourceEvent::Idle(what) => {
                 let since = *idle_since.get_or_insert_with(Instant::now);

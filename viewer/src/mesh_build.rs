@@ -16,7 +16,7 @@
 use glam::Vec3;
 
 use crate::bezier::{CellLayout, GridSurface, PHI, Patch, subdivisions_with_phi};
-use crate::cut::{CutPlane, End, SectionLoop, end_loop, fill_section, loop_normal, section_loop};
+use crate::cut::{CutPlane, End, SectionLoop, end_loop, fill_section, loop_normal, section_loop_with_rest};
 use crate::material::Material;
 use crate::scene_mesh::{LineVertex, LitVertex, SceneMesh};
 use crate::view_model::{Frame, Tissue, TissueSet, ToolPose, ViewModel};
@@ -77,7 +77,9 @@ impl Default for MeshOptions {
 #[derive(Debug, Default)]
 pub struct MeshBuilder {
     points: Vec<Vec3>,
+    rest_points: Vec<Vec3>,
     patches: Vec<Vec<Patch>>,
+    rest_patches: Vec<Vec<Patch>>,
     node_normals: Vec<Vec3>,
     node_vertex: Vec<u32>,
 }
@@ -90,14 +92,20 @@ impl MeshBuilder {
 
     /// Tessellates `frame` of `model` into `out` (cleared first).
     ///
-    /// A frame with fewer positions than the model needs yields an empty mesh.
+    /// Every tissue vertex also gets its rest position (its 3D texture coordinate), computed
+    /// exactly as its position is but from `model.rest_positions`: the same Bézier patch
+    /// parameters, the same interpolation weights. A model without rest positions takes this
+    /// frame's positions as rest. A frame with fewer positions than the model needs yields an
+    /// empty mesh.
     pub fn build(&mut self, model: &ViewModel, frame: &Frame, opts: &MeshOptions, out: &mut SceneMesh) {
         out.clear();
         if frame.positions.len() < model.node_count || !model.is_consistent() {
             return;
         }
         let pos = &frame.positions;
+        let rest = if model.rest_positions.len() >= model.node_count { &model.rest_positions } else { pos };
         self.patches.resize_with(model.grids.len(), Vec::new);
+        self.rest_patches.resize_with(model.grids.len(), Vec::new);
         let mut count_sum = 0u64;
         // Boundaries inside a closed skin tube are seen only through the cut faces and end
         // caps, which are built from their patches: their own surfaces are not drawn. Drawn,
@@ -116,7 +124,15 @@ impl MeshBuilder {
         for (g, grid) in model.grids.iter().enumerate() {
             self.points.clear();
             self.points.extend(grid.nodes.iter().map(|&i| pos[i as usize]));
+            self.rest_points.clear();
+            self.rest_points.extend(grid.nodes.iter().map(|&i| rest[i as usize]));
             let surface = GridSurface::new(grid.cols, grid.rows, grid.wrap, &self.points);
+            let rest_surface = GridSurface::new(grid.cols, grid.rows, grid.wrap, &self.rest_points);
+            let rest_patches = &mut self.rest_patches[g];
+            rest_patches.clear();
+            for r in 0..rest_surface.cell_rows() {
+                rest_patches.extend((0..rest_surface.cell_cols()).map(|c| rest_surface.patch(c, r)));
+            }
             if enclosed(g) {
                 let patches = &mut self.patches[g];
                 patches.clear();
@@ -131,7 +147,7 @@ impl MeshBuilder {
                 self.patches[g].clear();
                 continue;
             }
-            let (sum, max) = tessellate(&surface, &mut self.patches[g], material, opts.phi, out);
+            let (sum, max) = tessellate(&surface, &mut self.patches[g], &self.rest_patches[g], material, opts.phi, out);
             count_sum += sum;
             out.stats.max_counts = (out.stats.max_counts.0.max(max.0), out.stats.max_counts.1.max(max.1));
         }
@@ -139,7 +155,7 @@ impl MeshBuilder {
             out.stats.mean_quads_per_patch = count_sum as f32 / out.stats.patches as f32;
         }
         for surface in model.triangle_surfaces.iter().filter(|s| !opts.hidden.contains(s.tissue)) {
-            self.smooth_triangles(pos, &surface.triangles, Material::of(surface.tissue), out);
+            self.smooth_triangles(pos, rest, &surface.triangles, Material::of(surface.tissue), out);
         }
         self.sections(model, opts, out);
         springs(model, pos, opts, out);
@@ -162,7 +178,10 @@ impl MeshBuilder {
             .filter(|&g| model.grids[g].cols == outer.cols && model.grids[g].wrap == outer.wrap)
             .collect();
         let samples = opts.section_samples.max(1);
-        let loops_with = |make: &dyn Fn(&CellLayout, &[Patch]) -> SectionLoop| -> Vec<(Tissue, SectionLoop)> {
+        type Loops = Vec<(Tissue, SectionLoop, SectionLoop)>;
+        // The loop of one boundary and the same points at rest, from its patches.
+        type MakeLoops<'a> = &'a dyn Fn(&CellLayout, &[Patch], &[Patch]) -> (SectionLoop, SectionLoop);
+        let loops_with = |make: MakeLoops<'_>| -> Loops {
             nested
                 .iter()
                 .map(|&g| {
@@ -172,17 +191,19 @@ impl MeshBuilder {
                         rows: grid.rows - 1,
                         wrap: grid.wrap,
                     };
-                    (grid.beneath, make(&layout, &self.patches[g]))
+                    let (at, rest) = make(&layout, &self.patches[g], &self.rest_patches[g]);
+                    (grid.beneath, at, rest)
                 })
                 .collect()
         };
         if let Some(plane) = opts.cut {
-            let loops = loops_with(&|grid, patches| section_loop(grid, patches, &plane, samples, 6));
+            let loops =
+                loops_with(&|grid, patches, rest| section_loop_with_rest(grid, patches, rest, &plane, samples, 6));
             fill_section(&loops, outer.wrap, plane.normal, false, opts.hidden, out);
             // Dark outlines where the boundaries meet the cut, lifted off the face slightly.
             let lift = plane.normal * 2.0e-4;
             let outline = [0.06, 0.025, 0.02, 0.9];
-            for (tissue, lp) in &loops {
+            for (tissue, lp, _) in &loops {
                 if opts.hidden.contains(*tissue) {
                     continue;
                 }
@@ -198,14 +219,23 @@ impl MeshBuilder {
         }
         if opts.end_caps {
             for end in [End::First, End::Last] {
-                let loops = loops_with(&|grid, patches| end_loop(grid, patches, end, samples));
+                let loops = loops_with(&|grid, patches, rest| {
+                    (end_loop(grid, patches, end, samples), end_loop(grid, rest, end, samples))
+                });
                 let normal = loops.first().map_or(Vec3::Z, |l| loop_normal(&l.1));
                 fill_section(&loops, outer.wrap, normal, true, opts.hidden, out);
             }
         }
     }
 
-    fn smooth_triangles(&mut self, pos: &[Vec3], triangles: &[[u32; 3]], material: Material, out: &mut SceneMesh) {
+    fn smooth_triangles(
+        &mut self,
+        pos: &[Vec3],
+        rest: &[Vec3],
+        triangles: &[[u32; 3]],
+        material: Material,
+        out: &mut SceneMesh,
+    ) {
         self.node_normals.clear();
         self.node_normals.resize(pos.len(), Vec3::ZERO);
         self.node_vertex.clear();
@@ -228,6 +258,7 @@ impl MeshBuilder {
                         normal: self.node_normals[i as usize].normalize_or(Vec3::Z).to_array(),
                         color,
                         params: [material.shininess, 1.0],
+                        rest: rest[i as usize].extend(1.0).to_array(),
                     });
                 }
                 out.indices.push(*slot);
@@ -240,6 +271,7 @@ impl MeshBuilder {
 fn tessellate(
     surface: &GridSurface<'_>,
     patches: &mut Vec<Patch>,
+    rest_patches: &[Patch],
     material: Material,
     phi: f64,
     out: &mut SceneMesh,
@@ -285,6 +317,7 @@ fn tessellate(
     for r in 0..cr {
         for c in 0..cc {
             let patch = &patches[r * cc + c];
+            let rest_patch = rest_patches.get(r * cc + c).unwrap_or(patch);
             let fallback = surface.point_normal(c as isize, r as isize);
             let (n, m) = (n_col[c], m_row[r]);
             for a in 0..=n {
@@ -299,6 +332,7 @@ fn tessellate(
                         normal: normal.to_array(),
                         color,
                         params: [material.shininess, 1.0],
+                        rest: rest_patch.eval(s, t).extend(1.0).to_array(),
                     };
                 }
             }
@@ -376,6 +410,7 @@ fn add_tool(tool: &ToolPose, out: &mut SceneMesh) {
                 normal: n.to_array(),
                 color,
                 params,
+                rest: [0.0; 4],
             });
         }
     }
@@ -401,6 +436,7 @@ fn add_tool(tool: &ToolPose, out: &mut SceneMesh) {
                 normal: n.to_array(),
                 color,
                 params,
+                rest: [0.0; 4],
             });
         }
     }

@@ -11,55 +11,35 @@
 //!    draws background → tissue → lines → overlay, and [`Offscreen`] copies the resolved image
 //!    into a mapped buffer.
 
-use core::fmt;
-
 use bytemuck::{Pod, Zeroable};
 
 use crate::camera::Camera;
 use crate::cut::CutPlane;
 use crate::overlay::FlatVertex;
 use crate::scene_mesh::{LineVertex, LitVertex, SceneMesh};
+use crate::volume::{VolumeImage, VoxelFormat};
 
 /// Why the GPU could not be set up.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RendererCreateError {
     /// No Vulkan, GL or Metal adapter was found (on Debian: install `mesa-vulkan-drivers`).
+    #[error(
+        "no GPU adapter (Vulkan or GL) found: {0}; on a machine without a GPU install a software driver \
+         (Debian: apt-get install mesa-vulkan-drivers libvulkan1)"
+    )]
     NoAdapter(String),
     /// The adapter refused to create a device.
+    #[error("the GPU adapter refused to create a device: {0}")]
     RequestDevice(String),
 }
 
-impl fmt::Display for RendererCreateError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::NoAdapter(e) => write!(
-                f,
-                "no GPU adapter (Vulkan or GL) found: {e}; on a machine without a GPU install a software driver \
-                 (Debian: apt-get install mesa-vulkan-drivers libvulkan1)"
-            ),
-            Self::RequestDevice(e) => write!(f, "the GPU adapter refused to create a device: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for RendererCreateError {}
-
 /// Why a frame could not be read back.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum FrameReadError {
     /// Mapping the readback buffer failed or the device was lost.
+    #[error("cannot read the frame back from the GPU: {0}")]
     Map(String),
 }
-
-impl fmt::Display for FrameReadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Map(e) => write!(f, "cannot read the frame back from the GPU: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for FrameReadError {}
 
 /// Instance, adapter, device and queue.
 #[derive(Debug)]
@@ -96,7 +76,11 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lamina-viewer"),
             required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            // Volume textures as large as the adapter allows (the downlevel default is 256³).
+            required_limits: wgpu::Limits {
+                max_texture_dimension_3d: adapter.limits().max_texture_dimension_3d,
+                ..wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|e| RendererCreateError::RequestDevice(e.to_string()))?;
@@ -119,6 +103,8 @@ struct Globals {
     clip_plane: [f32; 4],
     key_light: [f32; 4],
     fill_light: [f32; 4],
+    volume_min: [f32; 4],
+    volume_scale: [f32; 4],
 }
 
 /// A vertex buffer that grows to fit and is rewritten each frame.
@@ -170,6 +156,9 @@ pub struct DrawInput<'a> {
     pub background: &'a [FlatVertex],
     /// 2-D triangles drawn last (text, legend).
     pub overlay: &'a [FlatVertex],
+    /// The volume texture drawn on the tissue (`None`: the materials' flat colours). Uploaded
+    /// when a volume is first drawn (reduced to the device's largest 3D texture if needed).
+    pub volume: Option<&'a VolumeImage>,
 }
 
 /// The pipelines and buffers that draw a frame into a colour target of a fixed format and size.
@@ -183,7 +172,11 @@ pub struct Renderer {
     lines: wgpu::RenderPipeline,
     flat: wgpu::RenderPipeline,
     globals: wgpu::Buffer,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
     bind_group: wgpu::BindGroup,
+    /// The uploaded volume: its id, box corner and 1 / box size, grey or colour.
+    volume: Option<(u64, glam::Vec3, glam::Vec3, bool)>,
     vertices: GrowBuffer,
     indices: GrowBuffer,
     line_vertices: GrowBuffer,
@@ -210,22 +203,47 @@ impl Renderer {
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("globals"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
                 },
-                count: None,
-            }],
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D3,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("globals"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("volume"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            address_mode_w: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
         });
+        let placeholder =
+            VolumeImage::new([1, 1, 1], VoxelFormat::Rgba, vec![255; 4], glam::Vec3::ZERO, glam::Vec3::ONE);
+        let bind_group = Self::volume_bind_group(gpu, &layout, &globals, &sampler, &placeholder);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("lamina"),
             bind_group_layouts: &[Some(&layout)],
@@ -276,7 +294,7 @@ impl Renderer {
             "lit",
             "vs_lit",
             "fs_lit",
-            &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2],
+            &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Float32x4],
             core::mem::size_of::<LitVertex>(),
             wgpu::PrimitiveTopology::TriangleList,
             (true, wgpu::CompareFunction::Less),
@@ -313,7 +331,10 @@ impl Renderer {
             lines,
             flat,
             globals,
+            layout,
+            sampler,
             bind_group,
+            volume: None,
             vertices: GrowBuffer::new(device, "lit vertices", vertex),
             indices: GrowBuffer::new(device, "lit indices", wgpu::BufferUsages::INDEX),
             line_vertices: GrowBuffer::new(device, "line vertices", vertex),
@@ -349,6 +370,76 @@ impl Renderer {
         (msaa, texture("depth", DEPTH_FORMAT, samples))
     }
 
+    /// Uploads `volume` into a 3D texture and returns the bind group that samples it.
+    fn volume_bind_group(
+        gpu: &GpuContext,
+        layout: &wgpu::BindGroupLayout,
+        globals: &wgpu::Buffer,
+        sampler: &wgpu::Sampler,
+        volume: &VolumeImage,
+    ) -> wgpu::BindGroup {
+        let [width, height, depth] = volume.size;
+        let format = match volume.format {
+            VoxelFormat::Grey => wgpu::TextureFormat::R8Unorm,
+            VoxelFormat::Rgba => wgpu::TextureFormat::Rgba8UnormSrgb,
+        };
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: depth };
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("volume"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        // One slab of z slices at a time keeps each staging copy small.
+        let row = width * volume.format.bytes() as u32;
+        let slice_bytes = row as usize * height as usize;
+        let slab = ((64usize << 20) / slice_bytes.max(1)).max(1) as u32;
+        let mut z = 0;
+        while z < depth {
+            let n = slab.min(depth - z);
+            let start = z as usize * slice_bytes;
+            gpu.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &volume.data[start..start + n as usize * slice_bytes],
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: Some(height) },
+                wgpu::Extent3d { width, height, depth_or_array_layers: n },
+            );
+            z += n;
+        }
+        let view = texture.create_view(&Default::default());
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("globals"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
+            ],
+        })
+    }
+
+    /// Uploads `volume` unless it is the one already uploaded.
+    fn use_volume(&mut self, gpu: &GpuContext, volume: &VolumeImage) {
+        if self.volume.is_some_and(|v| v.0 == volume.id()) {
+            return;
+        }
+        let max = gpu.device.limits().max_texture_dimension_3d;
+        let fitted = volume.fitted(max);
+        let upload = fitted.as_ref().unwrap_or(volume);
+        self.bind_group = Self::volume_bind_group(gpu, &self.layout, &self.globals, &self.sampler, upload);
+        let grey = volume.format == VoxelFormat::Grey;
+        self.volume = Some((volume.id(), volume.box_min, volume.box_size.recip(), grey));
+    }
+
     /// Changes the target size (a window was resized); a zero size is ignored.
     pub fn resize(&mut self, gpu: &GpuContext, width: u32, height: u32) {
         if width == 0 || height == 0 || (width, height) == (self.width, self.height) {
@@ -374,12 +465,21 @@ impl Renderer {
         let up = right.cross(forward);
         let key = (-right * 0.55 + up * 0.85 - forward * 0.45).normalize();
         let fill = (right * 0.8 + up * 0.1 - forward * 0.5).normalize();
+        if let Some(volume) = input.volume {
+            self.use_volume(gpu, volume);
+        }
+        let (volume_min, volume_scale) = match (input.volume, self.volume) {
+            (Some(_), Some((_, min, scale, grey))) => (min.extend(1.0), scale.extend(if grey { 1.0 } else { 0.0 })),
+            _ => (glam::Vec4::ZERO, glam::Vec4::ONE),
+        };
         let globals = Globals {
             view_proj: cam.view_proj(aspect).to_cols_array_2d(),
             eye: cam.eye.extend(1.0).to_array(),
             clip_plane: input.cut.map_or([0.0, 0.0, 0.0, -1.0], |c| c.as_vec4()),
             key_light: key.extend(1.0).to_array(),
             fill_light: fill.extend(0.35).to_array(),
+            volume_min: volume_min.to_array(),
+            volume_scale: volume_scale.to_array(),
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
         let mesh = input.mesh;

@@ -16,6 +16,9 @@ pub struct LitVertex {
     pub color: [f32; 4],
     /// Blinn-Phong exponent, and 1 if the cut plane removes this vertex's side, else 0.
     pub params: [f32; 2],
+    /// 3D texture coordinate: the point's rest position, metres, model frame (interpolated
+    /// like the position), and 1 in `w` if the volume texture applies (tissue), else 0 (tool).
+    pub rest: [f32; 4],
 }
 
 /// A vertex of a line (springs, outlines).

@@ -11,15 +11,24 @@ struct Globals {
     key_light: vec4<f32>,
     // xyz: direction toward the fill light; w: intensity.
     fill_light: vec4<f32>,
+    // xyz: corner of the volume texture's box, m (rest frame); w: 1 to draw the texture.
+    volume_min: vec4<f32>,
+    // xyz: 1 / size of that box, 1/m; w: 1 if the volume holds grey levels, 0 colours.
+    volume_scale: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> g: Globals;
+// The deformable volume texture, sampled at each point's rest position.
+@group(0) @binding(1) var volume_tex: texture_3d<f32>;
+@group(0) @binding(2) var volume_sampler: sampler;
 
 struct LitIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
     @location(3) params: vec2<f32>,
+    // xyz: rest position (m), the 3D texture coordinate before mapping; w: 1 if textured.
+    @location(4) rest: vec4<f32>,
 };
 
 struct LitOut {
@@ -28,6 +37,7 @@ struct LitOut {
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
     @location(3) params: vec2<f32>,
+    @location(4) rest: vec4<f32>,
 };
 
 @vertex
@@ -38,6 +48,7 @@ fn vs_lit(v: LitIn) -> LitOut {
     out.normal = v.normal;
     out.color = v.color;
     out.params = v.params;
+    out.rest = v.rest;
     return out;
 }
 
@@ -61,7 +72,15 @@ fn fs_lit(f: LitOut) -> @location(0) vec4<f32> {
     if (dot(n, v) < 0.0) {
         n = -n;
     }
-    let base = f.color.rgb;
+    var base = f.color.rgb;
+    // The volume texture at the rest position, in place of the material's colour (trilinear;
+    // outside the volume's box the material shows).
+    let tc = (f.rest.xyz - g.volume_min.xyz) * g.volume_scale.xyz;
+    let texel = textureSampleLevel(volume_tex, volume_sampler, tc, 0.0);
+    let inside = all(tc >= vec3<f32>(0.0)) && all(tc <= vec3<f32>(1.0));
+    if (g.volume_min.w > 0.5 && f.rest.w > 0.5 && inside) {
+        base = select(texel.rgb, vec3<f32>(pow(texel.r, 2.2)), g.volume_scale.w > 0.5);
+    }
     let sky = vec3<f32>(0.34, 0.36, 0.40);
     let ground = vec3<f32>(0.14, 0.11, 0.10);
     var c = base * mix(ground, sky, 0.5 + 0.5 * n.y);

@@ -32,24 +32,15 @@ pub enum SourceEvent {
 }
 
 /// Why a source failed for good (a missing core is not an error: it is [`SourceEvent::Idle`]).
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum SourceOpenError {
     /// The iceoryx2 node could not be opened.
+    #[error("cannot open the bridge: {0}")]
     Bridge(lamina_bridge::BridgeOpenError),
     /// A subscriber could not be created.
+    #[error("cannot subscribe: {0}")]
     Port(lamina_bridge::PortCreateError),
 }
-
-impl core::fmt::Display for SourceOpenError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Self::Bridge(e) => write!(f, "cannot open the bridge: {e}"),
-            Self::Port(e) => write!(f, "cannot subscribe: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for SourceOpenError {}
 
 /// A stream of models and frames.
 pub trait FrameSource {
@@ -104,12 +95,10 @@ impl FrameSource for SyntheticSource {
 
 /// The live core: `topology`, `nodes`, `stats` and `tool` under a service prefix.
 ///
-/// The wire topology carries surface triangles and layer ranges but neither grids nor springs,
-/// so a full model (grids for the Bézier skin, springs for the wireframe) is taken from a
-/// `reference` model with the same node count (the scene the core runs, loaded by the caller);
-/// otherwise the wire triangles are drawn as they are and their edges as the wireframe.
-/// Node frames of the reference's size are accepted even before any topology arrived (a
-/// topology sample can be lost when its publisher restarts).
+/// The model comes from the core's topology message alone ([`ViewModel::from_topology`]):
+/// surface grids for the Bézier patches, springs for the wireframe, the tissue of every
+/// layer and surface, the tool radius. The core re-sends it to late joiners every second, so
+/// the viewer may start before or after the core and needs no scene file.
 #[derive(Debug)]
 pub struct LiveSource {
     prefix: String,
@@ -119,8 +108,8 @@ pub struct LiveSource {
     tool: ToolSubscriber,
     // Dropped last: the ports above belong to its node.
     _bridge: Bridge,
-    reference: Option<ViewModel>,
     model_nodes: Option<usize>,
+    tool_radius_m: f32,
     last_sequence: Option<u64>,
     core_stats: Option<CoreStats>,
     tool_pose: Option<ToolPose>,
@@ -128,8 +117,8 @@ pub struct LiveSource {
 }
 
 impl LiveSource {
-    /// Subscribes under `prefix`; `reference` is the full model to use when it matches.
-    pub fn open(prefix: &str, reference: Option<ViewModel>) -> Result<Self, SourceOpenError> {
+    /// Subscribes under `prefix`.
+    pub fn open(prefix: &str) -> Result<Self, SourceOpenError> {
         let bridge = Bridge::open(&BridgeConfig::with_prefix(prefix)).map_err(SourceOpenError::Bridge)?;
         let port = SourceOpenError::Port;
         Ok(Self {
@@ -139,8 +128,8 @@ impl LiveSource {
             stats: StatsSubscriber::create(&bridge).map_err(port)?,
             tool: ToolSubscriber::create(&bridge).map_err(port)?,
             _bridge: bridge,
-            reference,
             model_nodes: None,
+            tool_radius_m: 0.0,
             last_sequence: None,
             core_stats: None,
             tool_pose: None,
@@ -164,11 +153,9 @@ impl LiveSource {
         };
         match sample.decode() {
             Ok(topology) => {
-                let model = match &self.reference {
-                    Some(r) if r.node_count == topology.node_count as usize => r.clone(),
-                    _ => ViewModel::from_wire_topology(&topology),
-                };
+                let model = ViewModel::from_topology(&topology);
                 self.model_nodes = Some(model.node_count);
+                self.tool_radius_m = model.tool_radius_m;
                 Some(model)
             }
             Err(e) => {
@@ -187,10 +174,10 @@ impl LiveSource {
         if let Ok(Some(t)) = self.tool.latest() {
             let m = t.message();
             let p = m.position;
-            self.tool_pose = (m.tool_radius_m > 0.0).then(|| ToolPose {
-                center: Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32),
-                radius: m.tool_radius_m as f32,
-            });
+            // A command's radius 0 means the scene's.
+            let radius = if m.tool_radius_m > 0.0 { m.tool_radius_m as f32 } else { self.tool_radius_m };
+            self.tool_pose =
+                (radius > 0.0).then(|| ToolPose { center: Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32), radius });
         }
     }
 }
@@ -203,14 +190,6 @@ impl FrameSource for LiveSource {
             return SourceEvent::Model(model);
         }
         let Some(node_count) = self.model_nodes else {
-            // No topology (yet): node frames of the reference model's size are enough to start.
-            if let (Some(reference), Ok(Some(sample))) = (&self.reference, self.nodes.latest())
-                && sample.header().node_count as usize == reference.node_count
-            {
-                self.model_nodes = Some(reference.node_count);
-                self.last_sequence = None;
-                return SourceEvent::Model(reference.clone());
-            }
             return SourceEvent::Idle("waiting for core (topology)");
         };
         self.poll_side_channels();

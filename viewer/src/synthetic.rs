@@ -23,7 +23,7 @@ use core::f32::consts::TAU;
 
 use glam::Vec3;
 
-use crate::view_model::{BoundaryGrid, Frame, Tissue, ToolPose, ViewModel, tissue_beneath_boundary};
+use crate::view_model::{BoundaryGrid, Frame, Tissue, ToolPose, ViewModel};
 
 /// Shape and motion of the synthetic limb. Lengths in metres, times in seconds.
 #[derive(Debug, Clone, PartialEq)]
@@ -100,7 +100,7 @@ impl SyntheticLimb {
                 rows: h,
                 wrap: true,
                 nodes: (0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| self.node(k, c, r)).collect(),
-                beneath: tissue_beneath_boundary(name),
+                beneath: Tissue::beneath_boundary(name),
             });
         }
         let mut push = |a: u32, b: u32, t: Tissue| {
@@ -108,7 +108,7 @@ impl SyntheticLimb {
             model.spring_tissue.push(t);
         };
         for k in 0..self.boundary_count() {
-            let on_surface = if k == 0 { Tissue::Skin } else { tissue_beneath_boundary(names[k]) };
+            let on_surface = if k == 0 { Tissue::Skin } else { Tissue::beneath_boundary(names[k]) };
             for r in 0..h {
                 for c in 0..w {
                     push(self.node(k, c, r), self.node(k, c + 1, r), on_surface);
@@ -117,7 +117,7 @@ impl SyntheticLimb {
                         push(self.node(k, c, r), self.node(k, c + 1, r + 1), on_surface);
                     }
                     if k + 1 < self.boundary_count() {
-                        let between = tissue_beneath_boundary(names[k]);
+                        let between = Tissue::beneath_boundary(names[k]);
                         push(self.node(k, c, r), self.node(k + 1, c, r), between);
                         push(self.node(k, c, r), self.node(k + 1, c + 1, r), between);
                         if r + 1 < h {

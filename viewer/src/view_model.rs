@@ -9,33 +9,6 @@ use glam::Vec3;
 /// The tissues the viewer tells apart, each drawn in its own material: the core's.
 pub use lamina_core::model::Tissue;
 
-/// The tissue a layer or surface name refers to: `skin*`/`derm*`, `fat*`/`adipose*`/
-/// `subcut*`, `muscle*`, `bone*`; anything else is [`Tissue::Other`].
-pub fn tissue_from_name(name: &str) -> Tissue {
-    let lower = name.to_ascii_lowercase();
-    if lower.starts_with("skin") || lower.starts_with("derm") {
-        Tissue::Skin
-    } else if lower.starts_with("fat") || lower.starts_with("adipose") || lower.starts_with("subcut") {
-        Tissue::Fat
-    } else if lower.starts_with("muscle") {
-        Tissue::Muscle
-    } else if lower.starts_with("bone") {
-        Tissue::Bone
-    } else {
-        Tissue::Other
-    }
-}
-
-/// The tissue just beneath a boundary surface named after the two tissues it separates
-/// (`skin_outer` → skin, `skin_fat` → fat, `fat_muscle` → muscle, `muscle_bone` → bone).
-pub fn tissue_beneath_boundary(name: &str) -> Tissue {
-    match name.rsplit('_').next() {
-        Some("outer") => Tissue::Skin,
-        Some(last) => tissue_from_name(last),
-        None => Tissue::Other,
-    }
-}
-
 /// A set of tissues (e.g. the layers the user has hidden). `Default`: empty.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct TissueSet(u8);
@@ -110,6 +83,40 @@ pub struct ViewModel {
     pub springs: Vec<[u32; 2]>,
     /// Tissue of each spring (same length as `springs`).
     pub spring_tissue: Vec<Tissue>,
+    /// Radius of the scene's tool, m (0: no tool); a tool command with radius 0 is drawn
+    /// with it.
+    pub tool_radius_m: f32,
+    /// Each node's rest position, metres, model frame: where its 3D texture coordinate is
+    /// fixed, so the texture moves with the tissue. Empty: the first frame's positions.
+    pub rest_positions: Vec<Vec3>,
+    /// Each node's tissue (its layer's), for the procedural volume texture. Empty: unknown
+    /// (the tissue is then taken from the boundary grids the node lies on).
+    pub node_tissue: Vec<Tissue>,
+    /// The user's volume texture, if any (else a procedural one is baked from the tissues).
+    pub volume: Option<VolumeSpec>,
+}
+
+/// Where the viewer finds a user's volume texture (a NIfTI-1 file) and how it places it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VolumeSpec {
+    /// The file, `.nii` or `.nii.gz`.
+    pub path: std::path::PathBuf,
+    /// Position of the first voxel's centre, metres, model frame. `None`: the header's origin.
+    pub origin_m: Option<[f32; 3]>,
+    /// Intensities mapped to black and white, `[lo, hi]`. `None`: the data's minimum and maximum.
+    pub window: Option<[f32; 2]>,
+}
+
+impl VolumeSpec {
+    /// The volume of a scene's `[visual]` table, if it names one.
+    pub fn from_scene(scene: &lamina_core::scene::Scene) -> Option<Self> {
+        let visual = scene.visual.as_ref()?;
+        Some(Self {
+            path: visual.volume.clone(),
+            origin_m: visual.origin_m.map(|o| o.map(|c| c as f32)),
+            window: visual.window.map(|w| w.map(|c| c as f32)),
+        })
+    }
 }
 
 impl ViewModel {
@@ -147,28 +154,13 @@ impl ViewModel {
         let layer_tissue: Vec<Tissue> = model.layers.iter().map(|l| l.tissue).collect();
         let mut view = ViewModel { name: model.name.clone(), node_count: model.nodes.len(), ..Self::default() };
         for surface in &model.surfaces {
+            let tissue = surface.tissue_beneath();
             match &surface.grid {
-                Some((cols, rows, nodes)) => {
-                    let (cols, rows) = (*cols as usize, *rows as usize);
-                    let seam_repeated = cols > 3 && (0..rows).all(|r| nodes[r * cols] == nodes[r * cols + cols - 1]);
-                    let (cols, nodes) = if seam_repeated {
-                        (cols - 1, (0..rows).flat_map(|r| nodes[r * cols..r * cols + cols - 1].to_vec()).collect())
-                    } else {
-                        (cols, nodes.clone())
-                    };
-                    view.grids.push(BoundaryGrid {
-                        name: surface.name.clone(),
-                        cols,
-                        rows,
-                        wrap: seam_repeated,
-                        nodes,
-                        beneath: tissue_beneath_boundary(&surface.name),
-                    });
-                }
+                Some((cols, rows, nodes)) => view.grids.push(boundary_grid(&surface.name, *cols, *rows, nodes, tissue)),
                 None => view.triangle_surfaces.push(TriangleSurface {
                     name: surface.name.clone(),
                     triangles: surface.triangles.clone(),
-                    tissue: tissue_beneath_boundary(&surface.name),
+                    tissue,
                 }),
             }
         }
@@ -177,34 +169,95 @@ impl ViewModel {
             view.springs.push([springs.a[s], springs.b[s]]);
             view.spring_tissue.push(layer_tissue.get(springs.layer[s] as usize).copied().unwrap_or(Tissue::Other));
         }
+        view.rest_positions =
+            model.nodes.position.iter().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32)).collect();
+        view.node_tissue =
+            model.nodes.layer.iter().map(|&l| layer_tissue.get(l as usize).copied().unwrap_or(Tissue::Other)).collect();
         view
     }
 
-    /// Builds a view from the wire topology alone (no grid, no springs known): the surface
-    /// triangles are drawn as the skin and their edges as the wireframe.
-    pub fn from_wire_topology(topology: &lamina_bridge::Topology) -> Self {
-        let mut edges: Vec<[u32; 2]> = topology
-            .triangles
-            .iter()
-            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-            .map(|[a, b]| [a.min(b), a.max(b)])
-            .collect();
-        edges.sort_unstable();
-        edges.dedup();
-        let spring_tissue = vec![Tissue::Skin; edges.len()];
-        ViewModel {
-            name: "live model".into(),
+    /// Builds the view from the core's topology message alone: its surface grids become
+    /// [`BoundaryGrid`]s as in [`ViewModel::from_core_model`], its springs keep their layer's
+    /// tissue, and the tool radius is the scene's. A topology without surfaces (a publisher
+    /// other than Lamina's core) is drawn from its triangles, their edges as the wireframe.
+    pub fn from_topology(topology: &lamina_bridge::Topology) -> Self {
+        let mut view = ViewModel {
+            name: if topology.name.is_empty() { "live model".into() } else { topology.name.clone() },
             node_count: topology.node_count as usize,
-            grids: Vec::new(),
-            triangle_surfaces: vec![TriangleSurface {
+            tool_radius_m: if topology.tool.source == 0 { 0.0 } else { topology.tool.radius_m as f32 },
+            ..Self::default()
+        };
+        let layer_tissue =
+            |l: u32| topology.layers.get(l as usize).map_or(Tissue::Other, |layer| tissue_of(layer.tissue));
+        for surface in &topology.surfaces {
+            let tissue = tissue_of(surface.tissue);
+            match surface.grid {
+                Some((cols, rows)) => {
+                    view.grids.push(boundary_grid(&surface.name, cols, rows, &surface.indices, tissue))
+                }
+                None => view.triangle_surfaces.push(TriangleSurface {
+                    name: surface.name.clone(),
+                    triangles: surface.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+                    tissue,
+                }),
+            }
+        }
+        if topology.surfaces.is_empty() {
+            view.triangle_surfaces.push(TriangleSurface {
                 name: "surface".into(),
                 triangles: topology.triangles.clone(),
                 tissue: Tissue::Skin,
-            }],
-            springs: edges,
-            spring_tissue,
+            });
         }
+        if topology.springs.is_empty() {
+            let mut edges: Vec<[u32; 2]> = topology
+                .triangles
+                .iter()
+                .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+                .map(|[a, b]| [a.min(b), a.max(b)])
+                .collect();
+            edges.sort_unstable();
+            edges.dedup();
+            view.spring_tissue = vec![Tissue::Skin; edges.len()];
+            view.springs = edges;
+        } else {
+            view.springs = topology.springs.clone();
+            view.spring_tissue = topology.spring_layer.iter().map(|&l| layer_tissue(l)).collect();
+        }
+        view.rest_positions = topology.rest_positions.iter().map(|p| Vec3::from_array(*p)).collect();
+        view.node_tissue = topology.node_layer.iter().map(|&l| layer_tissue(l)).collect();
+        view.volume = topology.volume.as_ref().filter(|v| !v.path.is_empty()).map(|v| VolumeSpec {
+            path: v.path.clone().into(),
+            origin_m: v.origin_m.map(|o| o.map(|c| c as f32)),
+            window: v.window.map(|w| w.map(|c| c as f32)),
+        });
+        view
     }
+}
+
+/// The model's tissue for the wire's.
+fn tissue_of(kind: lamina_bridge::TissueKind) -> Tissue {
+    use lamina_bridge::TissueKind as K;
+    match kind {
+        K::Skin => Tissue::Skin,
+        K::Fat => Tissue::Fat,
+        K::Muscle => Tissue::Muscle,
+        K::Bone => Tissue::Bone,
+        K::Other => Tissue::Other,
+    }
+}
+
+/// A surface grid as drawn: a grid whose last column repeats its first (the generator's seam
+/// convention for a closed tube) becomes a wrapping grid without the repeated column.
+fn boundary_grid(name: &str, cols: u32, rows: u32, nodes: &[u32], beneath: Tissue) -> BoundaryGrid {
+    let (cols, rows) = (cols as usize, rows as usize);
+    let seam_repeated = cols > 3 && (0..rows).all(|r| nodes[r * cols] == nodes[r * cols + cols - 1]);
+    let (cols, nodes) = if seam_repeated {
+        (cols - 1, (0..rows).flat_map(|r| nodes[r * cols..r * cols + cols - 1].to_vec()).collect())
+    } else {
+        (cols, nodes.to_vec())
+    };
+    BoundaryGrid { name: name.to_owned(), cols, rows, wrap: seam_repeated, nodes, beneath }
 }
 
 /// The haptic tool as drawn: a sphere.
@@ -247,15 +300,6 @@ pub struct Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn tissue_beneath_boundary_works() {
-        assert_eq!(tissue_beneath_boundary("skin_outer"), Tissue::Skin);
-        assert_eq!(tissue_beneath_boundary("skin_fat"), Tissue::Fat);
-        assert_eq!(tissue_beneath_boundary("fat_muscle"), Tissue::Muscle);
-        assert_eq!(tissue_beneath_boundary("muscle_bone"), Tissue::Bone);
-        assert_eq!(tissue_beneath_boundary("whatever"), Tissue::Other);
-    }
 
     #[test]
     fn view_of_core_default_scene_works() {
@@ -307,14 +351,13 @@ mod tests {
     }
 
     #[test]
-    fn view_of_wire_topology_works() {
+    fn view_of_bare_wire_topology_works() {
         let topology = lamina_bridge::Topology {
             node_count: 4,
             triangles: vec![[0, 1, 2], [2, 1, 3]],
-            layers: Vec::new(),
-            tex_coords: Vec::new(),
+            ..lamina_bridge::Topology::default()
         };
-        let view = ViewModel::from_wire_topology(&topology);
+        let view = ViewModel::from_topology(&topology);
         assert_eq!(view.springs.len(), 5, "shared edge counted once");
         assert!(view.is_consistent());
     }

@@ -37,6 +37,9 @@ pub enum WindowRunError {
     /// Window, surface or GPU setup failed.
     #[error("cannot set up the window: {0}")]
     Setup(WindowSetupError),
+    /// The model's volume texture could not be read.
+    #[error("{0}")]
+    Volume(String),
     /// A screenshot could not be written.
     #[error("cannot write the screenshot: {}: {error}", .path.display())]
     Screenshot {
@@ -321,6 +324,10 @@ impl App<'_> {
             match self.source.next_event(Duration::from_millis(2)) {
                 SourceEvent::Model(model) => {
                     self.composer.set_model(model);
+                    if let Some(e) = self.composer.volume_error() {
+                        self.error = Some(WindowRunError::Volume(e.to_string()));
+                        self.quit = true;
+                    }
                     // A new model gets its own default view.
                     self.controls.state.camera = None;
                 }
@@ -498,6 +505,7 @@ impl App<'_> {
                 cut: self.composer.cut(),
                 background: &self.composer.background,
                 overlay: &self.composer.overlay,
+                volume: self.composer.drawn_volume(),
             };
             s.renderer.draw(&s.gpu, &view, &input);
             drew = true;
@@ -537,6 +545,7 @@ impl App<'_> {
             cut: self.composer.cut(),
             background: &self.composer.background,
             overlay: &self.composer.overlay,
+            volume: self.composer.drawn_volume(),
         };
         renderer.draw(&s.gpu, target.view(), &input);
         wait_idle(&s.gpu);

@@ -18,7 +18,7 @@
 //! Skips (prints SKIP) without a GPU adapter (Vulkan or GL, lavapipe will do), unless
 //! `LAMINA_REQUIRE_GPU_SOFTWARE=1`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -26,6 +26,9 @@ use glam::{Vec3, Vec4};
 use lamina_viewer::app::{HeadlessViewer, ViewerOptions};
 use lamina_viewer::camera::Camera;
 use lamina_viewer::png_io::read_png;
+
+mod support;
+use support::lamina_bin;
 
 /// Least mean change of the contact region, levels of 255. Measured with the default limb's
 /// fitted springs: 5.06 (2-vCPU EPYC VM, llvmpipe: the dimple's shadowed rim around the ball
@@ -48,20 +51,6 @@ fn adapter_or_skip() -> bool {
             false
         }
     }
-}
-
-/// `lamina` beside this package's `lamina-viewer`, with `lamina-haptics`, built from this
-/// checkout (a binary left from an older build must not be tested).
-fn lamina_bin() -> PathBuf {
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_lamina-viewer")).with_file_name("lamina");
-    let release = path.parent().is_some_and(|d| d.ends_with("release"));
-    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    cmd.args(["build", "-p", "lamina", "-p", "lamina-haptics", "--bins"]);
-    if release {
-        cmd.arg("--release");
-    }
-    assert!(cmd.status().expect("cargo build").success(), "building lamina failed");
-    path
 }
 
 /// One row of `frames.csv` with a tool and a camera.

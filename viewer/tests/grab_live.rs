@@ -18,6 +18,9 @@ use std::time::{Duration, Instant};
 
 use lamina_viewer::source::{FrameSource, LiveSource, SourceEvent};
 
+mod support;
+use support::lamina_bin;
+
 fn xvfb_run() -> Option<PathBuf> {
     let found = std::env::var_os("PATH")
         .and_then(|paths| std::env::split_paths(&paths).map(|p| p.join("xvfb-run")).find(|p| p.is_file()));
@@ -30,21 +33,6 @@ fn xvfb_run() -> Option<PathBuf> {
     found
 }
 
-/// The `lamina` binary beside this package's `lamina-viewer`, built if absent.
-fn lamina_bin() -> PathBuf {
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_lamina-viewer")).with_file_name("lamina");
-    if !path.exists() {
-        let release = path.parent().is_some_and(|d| d.ends_with("release"));
-        let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-        cmd.args(["build", "-p", "lamina", "--bins"]);
-        if release {
-            cmd.arg("--release");
-        }
-        assert!(cmd.status().expect("cargo build").success(), "building lamina failed");
-    }
-    path
-}
-
 #[test]
 fn scripted_mouse_grab_pulls_the_skin_in_a_live_core_works() {
     let Some(xvfb) = xvfb_run() else { return };
@@ -55,7 +43,7 @@ fn scripted_mouse_grab_pulls_the_skin_in_a_live_core_works() {
         .stderr(Stdio::inherit())
         .spawn()
         .expect("starting lamina run");
-    let mut source = LiveSource::open(&prefix, None).expect("subscribing to the core");
+    let mut source = LiveSource::open(&prefix).expect("subscribing to the core");
     // The rest of the run is measured from the first frame.
     let deadline = Instant::now() + Duration::from_secs(30);
     let first = loop {

@@ -37,9 +37,11 @@ fn reference_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference").join(format!("{name}.png"))
 }
 
-/// A 320 × 240 headless viewer, or `None` (SKIP) without an adapter when allowed.
+/// A 320 × 240 headless viewer, or `None` (SKIP) without an adapter when allowed. The volume
+/// texture is off: these references check the geometry, cut faces and tissue colours (the
+/// texture has its own tests, `tests/volume_texture.rs`).
 fn viewer() -> Option<HeadlessViewer> {
-    match HeadlessViewer::new(ViewerOptions::default()) {
+    match HeadlessViewer::new(ViewerOptions { texture: false, ..ViewerOptions::default() }) {
         Ok(v) => {
             eprintln!("adapter: {}", v.adapter());
             Some(v)

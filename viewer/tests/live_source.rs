@@ -7,30 +7,53 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use lamina_bridge::{Bridge, BridgeConfig, LayerRange, NodesPublisher, Topology, TopologyPublisher};
+use lamina_bridge::{
+    Bridge, BridgeConfig, LayerRange, NodesPublisher, SurfaceTopology, TissueKind, Topology, TopologyPublisher,
+};
 use lamina_viewer::source::{FrameSource, LiveSource, SourceEvent};
 use lamina_viewer::synthetic::SyntheticLimb;
+use lamina_viewer::view_model::{Tissue, ViewModel};
 
-/// The wire topology of the synthetic limb: its skin grid as triangles.
-fn topology_of(model: &lamina_viewer::view_model::ViewModel) -> Topology {
-    let triangles = model.grids[0]
-        .nodes
-        .chunks(model.grids[0].cols)
-        .collect::<Vec<_>>()
-        .windows(2)
-        .flat_map(|rows| {
-            let (a, b) = (rows[0], rows[1]);
-            (0..a.len()).flat_map(move |c| {
-                let d = (c + 1) % a.len();
-                [[a[c], a[d], b[d]], [a[c], b[d], b[c]]]
-            })
+fn kind(t: Tissue) -> TissueKind {
+    match t {
+        Tissue::Skin => TissueKind::Skin,
+        Tissue::Fat => TissueKind::Fat,
+        Tissue::Muscle => TissueKind::Muscle,
+        Tissue::Bone => TissueKind::Bone,
+        Tissue::Other => TissueKind::Other,
+    }
+}
+
+/// The wire topology a core would publish for the synthetic limb, written independently of
+/// the viewer's reader: each grid with its seam column repeated (the generator's
+/// convention), one layer per tissue, every spring with its layer.
+fn topology_of(model: &ViewModel) -> Topology {
+    let tissues = [Tissue::Skin, Tissue::Fat, Tissue::Muscle, Tissue::Bone, Tissue::Other];
+    let surfaces = model
+        .grids
+        .iter()
+        .map(|g| {
+            let cols = g.cols + usize::from(g.wrap);
+            let indices = g.nodes.chunks(g.cols).flat_map(|row| (0..cols).map(|c| row[c % g.cols])).collect();
+            SurfaceTopology {
+                name: g.name.clone(),
+                tissue: kind(g.beneath),
+                grid: Some((cols as u32, g.rows as u32)),
+                indices,
+            }
         })
         .collect();
     Topology {
+        name: model.name.clone(),
         node_count: model.node_count as u32,
-        triangles,
-        layers: vec![LayerRange { name: "skin".into(), first_node: 0, node_count: model.node_count as u32 }],
-        tex_coords: Vec::new(),
+        layers: tissues
+            .iter()
+            .map(|t| LayerRange { name: t.name().into(), tissue: kind(*t), first_node: 0, node_count: 0 })
+            .collect(),
+        surfaces,
+        springs: model.springs.clone(),
+        spring_layer: model.spring_tissue.iter().map(|t| tissues.iter().position(|x| x == t).unwrap() as u32).collect(),
+        ..Topology::default()
     }
 }
 
@@ -61,7 +84,7 @@ fn live_source_follows_core_and_restart_works() {
     let prefix = format!("lamina_viewer_test_{}", std::process::id());
     let reference = SyntheticLimb::default().view_model();
     // The viewer first: no core yet.
-    let mut source = LiveSource::open(&prefix, Some(reference.clone())).expect("live source opens");
+    let mut source = LiveSource::open(&prefix).expect("live source opens");
     assert!(matches!(source.next_event(Duration::from_millis(50)), SourceEvent::Idle(_)));
 
     let stop = Arc::new(AtomicBool::new(false));
@@ -77,7 +100,7 @@ fn live_source_follows_core_and_restart_works() {
         while frames_this_run < 20 && Instant::now() < deadline {
             match source.next_event(Duration::from_millis(200)) {
                 SourceEvent::Model(m) => {
-                    assert_eq!(m, reference, "the matching reference model is used");
+                    assert_eq!(m, reference, "the whole model (grids, springs, tissues) comes over the wire");
                     models += 1;
                 }
                 SourceEvent::Frame(f) => {
@@ -113,7 +136,7 @@ fn live_source_draws_the_newest_queued_frame_works() {
     let prefix = format!("lamina_viewer_newest_{}", std::process::id());
     let limb = SyntheticLimb::default();
     let model = limb.view_model();
-    let mut source = LiveSource::open(&prefix, Some(model.clone())).expect("live source opens");
+    let mut source = LiveSource::open(&prefix).expect("live source opens");
     let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
     let topology = topology_of(&model);
     let mut topo_pub = TopologyPublisher::create(&bridge, topology.word_count()).expect("topology publisher");

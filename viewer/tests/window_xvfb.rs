@@ -8,7 +8,9 @@
 //!
 //! The synthetic limb's frame `k` is the limb at `k / 60` simulated seconds and the window
 //! draws every frame it receives once, so the image after N frames does not depend on the
-//! machine's speed. The timing panel is off (`--no-overlay`); the key list has fixed text.
+//! machine's speed. The timing panel is off (`--no-overlay`); the key list has fixed text. The
+//! volume texture is off (`--no-texture`): these references check the window, its input and the
+//! geometry; the texture has its own tests (`tests/volume_texture.rs`).
 //!
 //! Skips (prints SKIP) without `xvfb-run`, unless `LAMINA_REQUIRE_XVFB=1` (set by CI), which
 //! makes it fail. Regenerate the references with
@@ -55,7 +57,7 @@ fn screenshot(name: &str, script: Option<&str>) -> Option<(u32, u32, Vec<u8>, St
     let mut cmd = Command::new(xvfb);
     cmd.args(["-a", "-s", "-screen 0 1024x768x24"])
         .arg(env!("CARGO_BIN_EXE_lamina-viewer"))
-        .args(["--synthetic", "--size", "640x480", "--no-overlay", "--wait-limit-s", "20"])
+        .args(["--synthetic", "--size", "640x480", "--no-overlay", "--no-texture", "--wait-limit-s", "20"])
         .args(["--screenshot-after-frames", &FRAMES.to_string(), "--screenshot"])
         .arg(&path)
         .env_remove("WAYLAND_DISPLAY");

@@ -11,3 +11,13 @@ pub struct Surface {
     /// each grid point, row-major. The viewer's Bézier patches need it.
     pub grid: Option<(u32, u32, Vec<u32>)>,
 }
+
+impl Surface {
+    /// The tissue just beneath this surface, from its name ([`Tissue::beneath_boundary`]):
+    /// `skin_outer` → skin, `skin_fat` → fat, `fat_muscle` → muscle, `muscle_bone` → bone.
+    ///
+    /// [`Tissue::beneath_boundary`]: super::Tissue::beneath_boundary
+    pub fn tissue_beneath(&self) -> super::Tissue {
+        super::Tissue::beneath_boundary(&self.name)
+    }
+}

@@ -11,6 +11,7 @@ mod solver_section;
 mod springs_section;
 mod tool_section;
 mod tool_settings;
+mod visual_section;
 
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
@@ -18,4 +19,5 @@ pub use realtime_section::{OverrunChoice, RealtimeSettings};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::SceneSprings;
-pub use tool_settings::{ToolSettings, ToolSource};
+pub use tool_settings::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource};
+pub use visual_section::VisualSection;

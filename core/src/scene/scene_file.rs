@@ -9,6 +9,7 @@ use super::realtime_section::{RawRealtime, RealtimeSettings, realtime_settings};
 use super::section::FieldError;
 use super::solver_section::{RawSolver, solver_parameters};
 use super::tool_settings::ToolSettings;
+use super::visual_section::{RawVisual, VisualSection, visual_section};
 use crate::model::Model;
 use crate::solver::{Effects, IntegrationParameters};
 use crate::yardstick::lattice_model;
@@ -47,6 +48,8 @@ pub struct Scene {
     /// The haptic tool (`[effects.tool]`), when the scene has one. A scripted tool is also in
     /// `effects.tool`; a haptics-driven one enters the loop with the first command.
     pub tool: Option<ToolSettings>,
+    /// How the viewer draws the tissue (`[visual]`), when the scene says.
+    pub visual: Option<VisualSection>,
     /// File the scene was read from (`None` for the built-in one).
     pub path: Option<PathBuf>,
 }
@@ -109,6 +112,7 @@ struct RawScene {
     effects: RawEffects,
     #[serde(default)]
     realtime: RawRealtime,
+    visual: Option<RawVisual>,
 }
 
 /// 1-based line and column of byte `offset` in `text` (for TOML errors).
@@ -197,6 +201,7 @@ impl Scene {
         let solver = solver_parameters(raw.solver, rate_hz).map_err(located)?;
         let (effects, tool) = effects(raw.effects).map_err(located)?;
         let realtime = realtime_settings(raw.realtime).map_err(located)?;
+        let visual = visual_section(raw.visual, base).map_err(located)?;
         Ok(Self {
             name: raw.name.unwrap_or_else(|| "unnamed".into()),
             rate_hz,
@@ -206,6 +211,7 @@ impl Scene {
             effects,
             realtime,
             tool,
+            visual,
             path: path.map(Path::to_path_buf),
         })
     }

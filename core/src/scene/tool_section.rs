@@ -16,6 +16,8 @@ pub(super) struct RawTool {
     device_origin: Option<[f64; 3]>,
     timeout_ms: Option<f64>,
     min_radius: Option<f64>,
+    device_scale: Option<f64>,
+    force_scale: Option<f64>,
 }
 
 /// The `[effects.tool]` table.
@@ -32,8 +34,14 @@ pub(super) fn tool_settings(t: RawTool) -> Result<ToolSettings, FieldError> {
 }
 
 fn scripted(t: &RawTool) -> Result<ToolSource, FieldError> {
-    if t.min_radius.is_some() {
-        return Err(FieldError::new("effects.tool.min_radius", "only for source = \"haptics\""));
+    for (key, given) in [
+        ("min_radius", t.min_radius.is_some()),
+        ("device_scale", t.device_scale.is_some()),
+        ("force_scale", t.force_scale.is_some()),
+    ] {
+        if given {
+            return Err(FieldError::new(format!("effects.tool.{key}"), "only for source = \"haptics\""));
+        }
     }
     let start = t.start.ok_or_else(|| FieldError::new("effects.tool.start", "required when scripted"))?;
     let velocity = t.velocity.unwrap_or([0.0; 3]);
@@ -55,7 +63,13 @@ fn haptics(t: &RawTool) -> Result<ToolSource, FieldError> {
     if !(min_radius.is_finite() && min_radius > 0.0 && min_radius <= t.radius) {
         return Err(FieldError::new("effects.tool.min_radius", "finite, positive and at most radius"));
     }
-    Ok(ToolSource::Haptics { device_origin, timeout_s, min_radius })
+    let (device_scale, force_scale) = (t.device_scale.unwrap_or(1.0), t.force_scale.unwrap_or(1.0));
+    for (key, value) in [("device_scale", device_scale), ("force_scale", force_scale)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(FieldError::new(format!("effects.tool.{key}"), "finite and positive"));
+        }
+    }
+    Ok(ToolSource::Haptics { device_origin, timeout_s, min_radius, device_scale, force_scale })
 }
 
 #[cfg(test)]
@@ -81,6 +95,18 @@ mod tests {
             (
                 "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\nmin_radius = 0.005\n",
                 "effects.tool.min_radius",
+            ),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstart = [0.0, 0.0, 0.0]\ndevice_scale = 2.0\n",
+                "effects.tool.device_scale",
+            ),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\ndevice_scale = 0.0\n",
+                "effects.tool.device_scale",
+            ),
+            (
+                "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nforce_scale = inf\n",
+                "effects.tool.force_scale",
             ),
         ];
         for (body, field) in cases {

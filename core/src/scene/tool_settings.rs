@@ -24,8 +24,18 @@ pub enum ToolSource {
         /// between the samples: a command below it is raised to it (and counted). Default: the
         /// scene's `radius`. Samples, and their cost, grow as `(radius / min_radius)²`.
         min_radius: f64,
+        /// Model metres per device metre: the device's workspace scaled onto the model.
+        /// Default 1.
+        device_scale: f64,
+        /// Device newtons per model newton. Default 1.
+        force_scale: f64,
     },
 }
+
+/// Rotation from the haptic device's axes (x toward the operator, y right, z up) to a y-up
+/// model's (row-major, `model_i = Σ_j R[i][j] device_j`): device x → model z, device y → model
+/// x, device z → model y.
+pub const DEVICE_TO_Y_UP_MODEL: [[f64; 3]; 3] = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]];
 
 /// The scene's `[effects.tool]` table.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -105,7 +105,13 @@ pub fn indentation(
     let settings = scene.tool.unwrap_or(ToolSettings {
         radius: 0.012,
         stiffness: 300.0,
-        source: ToolSource::Haptics { device_origin: [0.0; 3], timeout_s: 0.1, min_radius: 0.012 },
+        source: ToolSource::Haptics {
+            device_origin: [0.0; 3],
+            timeout_s: 0.1,
+            min_radius: 0.012,
+            device_scale: 1.0,
+            force_scale: 1.0,
+        },
     });
     let radius = settings.radius;
     let (columns, rows, grid) =
