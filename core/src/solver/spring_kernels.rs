@@ -9,7 +9,9 @@
 //! picks the build for the chosen [`SimdLevel`]): plain arrays for the baseline, AVX
 //! registers for AVX2 and for AVX-512 (whose 512-bit units gain nothing on a block of 8).
 //! Every build performs the same operations in the same order, so all give the same bits.
-//! Forces are *added* into a window of the force arrays that starts at node `lo`.
+//! Forces are *added* into a window of the force arrays that starts at node `lo`. Linear
+//! runs whose parameters are packed ([`super::spring_pack`]) are walked the same way, each
+//! run's lane block decoding its record from the group's one parameter stream.
 
 use super::lane_block::{Block, LANES, ScalarBlock, max, min};
 use super::simd::SimdLevel;
