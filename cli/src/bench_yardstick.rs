@@ -1,6 +1,7 @@
 //! `lamina bench yardstick`: time per step of the yardstick scene, Lamina's solver beside
 //! the specification's plain scalar loop, in one run.
 
+use crate::yardstick_c::CStepper;
 use lamina_core::real::Real;
 use lamina_core::solver::{SimdLevel, Simulation};
 use lamina_core::yardstick::{self, Checksum, LatticeSize, ReferenceStepper, YardstickImpl};
@@ -42,6 +43,12 @@ trait Stepper {
 impl<T: Real> Stepper for Simulation<T> {
     fn step(&mut self) {
         Simulation::step(self)
+    }
+}
+
+impl Stepper for CStepper {
+    fn step(&mut self) {
+        CStepper::step(self)
     }
 }
 
@@ -112,6 +119,52 @@ pub fn time_config(
         mspring_per_s: springs as f64 / secs / 1e6,
         steps_timed: steps,
     }
+}
+
+/// Times the plain-C baseline (f32) on `threads` threads: `Err` says why it is not in this
+/// binary.
+pub fn time_c(size: LatticeSize, threads: usize, batch: Duration) -> Result<YardstickRow, String> {
+    let model = yardstick::lattice_model(size);
+    let mut stepper = CStepper::new(&model, threads)?;
+    let (secs, steps) = time_steps(&mut stepper, batch, 5);
+    let springs = yardstick::spring_count(size);
+    Ok(YardstickRow {
+        size: size.name(),
+        nodes: size.nodes(),
+        springs,
+        precision: "f32",
+        implementation: c_name(threads).into(),
+        threads,
+        ms_per_step: secs * 1e3,
+        ns_per_spring_step: secs * 1e9 / springs as f64,
+        mspring_per_s: springs as f64 / secs / 1e6,
+        steps_timed: steps,
+    })
+}
+
+/// Name of the C baseline's row on `threads` threads.
+pub fn c_name(threads: usize) -> &'static str {
+    if threads > 1 { "c-openmp" } else { "c" }
+}
+
+/// Checksum row of the C baseline (f32), small size after 1000 steps.
+pub fn c_checksum_row(threads: usize) -> Result<ChecksumRow, String> {
+    let model = yardstick::lattice_model(LatticeSize::SMALL);
+    let mut c = CStepper::new(&model, threads)?;
+    for _ in 0..1000 {
+        c.step();
+    }
+    let s = yardstick::checksum(&model, |i| c.x[i].map(f64::from));
+    Ok(ChecksumRow {
+        precision: "f32",
+        implementation: c_name(threads).into(),
+        threads,
+        sum_ux: s.sum_ux,
+        sum_uy: s.sum_uy,
+        sum_uz: s.sum_uz,
+        max_u: s.max_u,
+        rms_u: s.rms_u,
+    })
 }
 
 fn checksum_of<T: Real>(imp: YardstickImpl, threads: usize) -> Checksum {

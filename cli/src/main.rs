@@ -18,6 +18,7 @@ mod record;
 mod run;
 mod run_report;
 mod study;
+mod yardstick_c;
 mod yardstick_cmd;
 
 use clap::{Parser, Subcommand};
@@ -306,6 +307,9 @@ enum BenchCommand {
         /// Leave out the scalar reference loop.
         #[arg(long)]
         no_reference: bool,
+        /// Leave out the plain-C baseline (f32; `-O3 -march=native`, one thread and OpenMP).
+        #[arg(long)]
+        no_c: bool,
         /// Also time every level with each spring's parameters streamed from memory (runs of
         /// identical springs not sharing one entry): the layout without parameter sharing.
         #[arg(long)]
@@ -413,6 +417,7 @@ fn run(command: Command) -> Result<(), String> {
                     precision,
                     simd,
                     no_reference,
+                    no_c,
                     streamed_params,
                     json,
                     batch_seconds,
@@ -439,6 +444,7 @@ fn run(command: Command) -> Result<(), String> {
                 })?,
                 levels,
                 reference: !no_reference,
+                c: !no_c,
                 streamed: streamed_params,
                 json,
                 batch: Duration::from_secs_f64(batch_seconds.max(0.01)),

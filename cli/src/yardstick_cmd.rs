@@ -1,6 +1,8 @@
 //! `lamina bench yardstick` tables and `lamina yardstick` (final positions as CSV).
 
-use super::bench_yardstick::{ChecksumRow, YardstickRow, checksum_row, implementations, time_config};
+use super::bench_yardstick::{
+    ChecksumRow, YardstickRow, c_checksum_row, c_name, checksum_row, implementations, time_c, time_config,
+};
 use super::machine;
 use lamina_core::real::Real;
 use lamina_core::solver::{SimdLevel, Simulation};
@@ -15,6 +17,8 @@ pub struct BenchOptions {
     pub precisions: Vec<&'static str>,
     pub levels: Vec<SimdLevel>,
     pub reference: bool,
+    /// Time the plain-C baseline (f32: one thread, and OpenMP on each thread count above 1).
+    pub c: bool,
     /// Also time every level with per-spring parameter streams (no shared run entries).
     pub streamed: bool,
     pub json: bool,
@@ -54,6 +58,24 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
             if !opts.reference {
                 imps.remove(0);
             }
+            if opts.c && precision == "f32" {
+                for &threads in &opts.threads {
+                    match time_c(size, threads, opts.batch) {
+                        Ok(row) => {
+                            if !opts.json {
+                                print_row(&row);
+                            }
+                            rows.push(row);
+                        }
+                        Err(why) if !opts.json => {
+                            println!("{:<7} {} on {threads} thread(s) skipped: {why}", size.name(), c_name(threads))
+                        }
+                        Err(why) => {
+                            eprintln!("{} {} on {threads} thread(s) skipped: {why}", size.name(), c_name(threads))
+                        }
+                    }
+                }
+            }
             for imp in imps {
                 let thread_list: Vec<usize> =
                     if imp == yardstick::YardstickImpl::Reference { vec![1] } else { opts.threads.clone() };
@@ -61,19 +83,7 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
                     let row = time_config(size, precision, imp, threads, opts.batch);
                     bar.inc(1);
                     if !opts.json {
-                        println!(
-                            "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10.3} {:>9.3} {:>10.1}",
-                            row.size,
-                            row.nodes,
-                            row.springs,
-                            row.precision,
-                            row.implementation,
-                            row.threads,
-                            row.ms_per_step,
-                            row.ns_per_spring_step,
-                            row.mspring_per_s
-                        );
-                        let _ = std::io::stdout().flush();
+                        print_row(&row);
                     }
                     rows.push(row);
                 }
@@ -85,6 +95,10 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
     for &precision in &opts.precisions {
         if opts.reference {
             checks.push(checksum_row(precision, yardstick::YardstickImpl::Reference, 1));
+        }
+        if opts.c && precision == "f32" {
+            // Rows for what is built; the timing section already said what is skipped.
+            checks.extend(opts.threads.iter().filter_map(|&t| c_checksum_row(t).ok()));
         }
         let best = *opts.levels.last().unwrap_or(&SimdLevel::detect());
         for &threads in &opts.threads {
@@ -108,6 +122,22 @@ pub fn bench(opts: &BenchOptions) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+fn print_row(row: &YardstickRow) {
+    println!(
+        "{:<7} {:>9} {:>10} {:<5} {:<27} {:>3} {:>10.3} {:>9.3} {:>10.1}",
+        row.size,
+        row.nodes,
+        row.springs,
+        row.precision,
+        row.implementation,
+        row.threads,
+        row.ms_per_step,
+        row.ns_per_spring_step,
+        row.mspring_per_s
+    );
+    let _ = std::io::stdout().flush();
 }
 
 fn positions<T: Real>(size: LatticeSize, steps: usize, reference: bool, threads: usize) -> Vec<[f64; 3]> {

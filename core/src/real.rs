@@ -92,4 +92,53 @@ pub trait Block<T: Real>: Copy {
     fn keep(self, keep: &[u8]) -> Self;
     /// `yes` in the lanes where `self > 0` (ordered: false for NaN), `no` elsewhere.
     fn select_positive(self, yes: Self, no: Self) -> Self;
+    /// `s[i..i + LANES]` as IEEE binary16 values, widened (exactly); panics if out of bounds.
+    fn load_f16(s: &[u16], i: usize) -> Self;
+    /// `s[i..i + LANES]` as unsigned integers, widened (exactly); panics if out of bounds.
+    fn load_u16(s: &[u16], i: usize) -> Self;
+}
+
+/// The value of IEEE binary16 bits `h` (every binary16 value is an `f64`, exactly).
+#[inline(always)]
+pub fn f16_to_f64(h: u16) -> f64 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let mant = f64::from(h & 0x3ff);
+    sign * match exp {
+        0 => mant * (2.0f64).powi(-24),
+        31 if mant == 0.0 => f64::INFINITY,
+        31 => f64::NAN,
+        _ => (1024.0 + mant) * (2.0f64).powi(exp - 25),
+    }
+}
+
+/// `v` rounded to the nearest IEEE binary16 (ties to even; beyond 65504 to infinity), as bits.
+pub fn f16_from_f64(v: f64) -> u16 {
+    let sign: u16 = if v.is_sign_negative() { 0x8000 } else { 0 };
+    let a = v.abs();
+    if a.is_nan() {
+        return sign | 0x7e00;
+    }
+    if a >= 65520.0 {
+        return sign | 0x7c00;
+    }
+    if a < (2.0f64).powi(-26) {
+        return sign;
+    }
+    // a = q · 2^u with the binary16 step 2^u of a's binade (2^-24 below the normal range).
+    let e = ((a.to_bits() >> 52) & 0x7ff) as i32 - 1023;
+    let mut u = e.max(-14) - 10;
+    let mut m = (a * (2.0f64).powi(-u)).round_ties_even() as u32;
+    if m == 2048 {
+        m = 1024;
+        u += 1;
+    }
+    if m < 1024 {
+        return sign | m as u16;
+    }
+    let field = u + 25;
+    if field >= 31 {
+        return sign | 0x7c00;
+    }
+    sign | ((field as u16) << 10) | (m - 1024) as u16
 }

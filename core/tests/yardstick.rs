@@ -46,6 +46,41 @@ fn yardstick_lamina_matches_reference_loop_works() {
     assert!(want.sum_uz.abs() < 1e-9 * want.sum_uy.abs() * 1e3);
 }
 
+/// With every spring streaming its own parameters (packed: rest lengths as exact ulp offsets,
+/// stiffness and dashpot as binary16 factors of the run's largest), the small size after
+/// 1000 steps agrees with the f32 scalar loop to f32 round-off (the yardstick's parameters
+/// pack exactly, so only the summation order differs: 1e-5 relative) and is bit for bit the
+/// shared-parameter run.
+#[test]
+fn yardstick_streamed_parameters_checksum_works() {
+    let size = LatticeSize::SMALL;
+    let model = yardstick::lattice_model(size);
+    let mut reference = ReferenceStepper::<f32>::new(&model, yardstick::run_gravity(), 1e-4).unwrap();
+    for _ in 0..1000 {
+        reference.step();
+    }
+    let want = yardstick::checksum(&model, |i| reference.x[i].map(f64::from));
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    for level in SimdLevel::available() {
+        for threads in [1, 2] {
+            let run = |imp| {
+                let mut sim =
+                    Simulation::<f32>::new(&model, yardstick::impl_params(imp, threads), yardstick::lattice_effects())
+                        .unwrap();
+                for _ in 0..1000 {
+                    sim.step();
+                }
+                yardstick::checksum(&model, |i| sim.state().x.get_f64(i))
+            };
+            let got = run(yardstick::YardstickImpl::LaminaStreamed(level));
+            assert_eq!(got, run(yardstick::YardstickImpl::Lamina(level)), "{level} x{threads}");
+            assert!(rel(got.sum_uy, want.sum_uy) < 1e-5, "{level} x{threads}: {got:?} vs {want:?}");
+            assert!(rel(got.max_u, want.max_u) < 1e-5, "{level} x{threads}: {got:?} vs {want:?}");
+            assert!(rel(got.rms_u, want.rms_u) < 1e-5, "{level} x{threads}: {got:?} vs {want:?}");
+        }
+    }
+}
+
 #[test]
 fn yardstick_simd_levels_are_bit_identical_works() {
     let size = LatticeSize { nx: 17, ny: 5, nz: 6 };

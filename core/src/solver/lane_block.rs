@@ -8,7 +8,7 @@
 //! lane by lane.
 
 use crate::real::Real;
-pub use crate::real::{Block, LANES, max, min};
+pub use crate::real::{Block, LANES, f16_from_f64, f16_to_f64, max, min};
 
 /// A block as an array, computed lane by lane.
 #[derive(Clone, Copy)]
@@ -86,6 +86,24 @@ impl<T: Real> Block<T> for ScalarBlock<T> {
         }
         Self(r)
     }
+    #[inline(always)]
+    fn load_f16(s: &[u16], i: usize) -> Self {
+        let s = &s[i..i + LANES];
+        let mut r = [T::ZERO; LANES];
+        for l in 0..LANES {
+            r[l] = T::from_f64(f16_to_f64(s[l]));
+        }
+        Self(r)
+    }
+    #[inline(always)]
+    fn load_u16(s: &[u16], i: usize) -> Self {
+        let s = &s[i..i + LANES];
+        let mut r = [T::ZERO; LANES];
+        for l in 0..LANES {
+            r[l] = T::from_f64(f64::from(s[l]));
+        }
+        Self(r)
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -94,7 +112,8 @@ pub use avx::{AvxF32, AvxF64};
 #[cfg(target_arch = "x86_64")]
 mod avx {
     //! AVX blocks. Their methods are `inline(always)` and only ever inlined into functions
-    //! compiled with AVX2 enabled, which the kernel calls only after detecting AVX2.
+    //! compiled with AVX2 enabled, which the kernel calls only after detecting AVX2 (and
+    //! F16C, which every AVX2 CPU has, for `load_f16`).
     use super::{Block, LANES};
     use std::arch::x86_64::*;
 
@@ -180,6 +199,16 @@ mod avx {
                 Self(_mm256_blendv_ps(no.0, yes.0, positive))
             }
         }
+        #[inline(always)]
+        fn load_f16(s: &[u16], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            unsafe { Self(_mm256_cvtph_ps(_mm_loadu_si128(s.as_ptr().cast()))) }
+        }
+        #[inline(always)]
+        fn load_u16(s: &[u16], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            unsafe { Self(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(_mm_loadu_si128(s.as_ptr().cast())))) }
+        }
     }
 
     impl Block<f64> for AvxF64 {
@@ -243,6 +272,25 @@ mod avx {
                 let z = _mm256_setzero_pd();
                 let (p0, p1) = (_mm256_cmp_pd::<_CMP_GT_OQ>(self.0, z), _mm256_cmp_pd::<_CMP_GT_OQ>(self.1, z));
                 Self(_mm256_blendv_pd(no.0, yes.0, p0), _mm256_blendv_pd(no.1, yes.1, p1))
+            }
+        }
+        #[inline(always)]
+        fn load_f16(s: &[u16], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            unsafe {
+                let w = _mm256_cvtph_ps(_mm_loadu_si128(s.as_ptr().cast()));
+                Self(_mm256_cvtps_pd(_mm256_castps256_ps128(w)), _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(w)))
+            }
+        }
+        #[inline(always)]
+        fn load_u16(s: &[u16], i: usize) -> Self {
+            let s = &s[i..i + LANES];
+            unsafe {
+                let w = _mm256_cvtepu16_epi32(_mm_loadu_si128(s.as_ptr().cast()));
+                Self(
+                    _mm256_cvtepi32_pd(_mm256_castsi256_si128(w)),
+                    _mm256_cvtepi32_pd(_mm256_extracti128_si256::<1>(w)),
+                )
             }
         }
     }
@@ -318,6 +366,8 @@ mod tests {
             x.keep(&keep),
             B::splat(a[4]),
             x.select_positive(x, y),
+            B::load_f16(&[0x3c00, 0x8000, 0x0001, 0x7bff, 0xfc00, 0x3555, 0x2e66, 0x03ff], 0),
+            B::load_u16(&[0, 1, 65535, 32768, 7, 1000, 4096, 12345], 0),
         ];
         results
             .iter()
@@ -353,7 +403,7 @@ mod tests {
             eprintln!("no AVX2 on this CPU: nothing to compare");
             return;
         }
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,f16c")]
         fn with_avx<T: Real, B: Block<T>>(a: &[T], b: &[T]) -> Vec<[T; LANES]> {
             ops::<T, B>(a, b)
         }

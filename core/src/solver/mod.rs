@@ -24,6 +24,7 @@ mod skin_volume;
 mod sparse_cholesky;
 mod spring_kernels;
 mod spring_layout;
+mod spring_pack;
 mod spring_pass;
 mod spring_runs;
 mod vec3s;

@@ -123,7 +123,8 @@ pub struct IntegrationParameters {
     pub simd: SimdLevel,
     /// Runs of springs with identical parameters read one shared entry instead of a
     /// per-spring stream (bit-identical forces, less memory traffic). Default true; false
-    /// is for side-by-side benchmarks.
+    /// (every spring streams its own parameters, in f32 packed to 6 bytes a spring when they
+    /// pack within the bounds of `solver::spring_pack`) is for side-by-side benchmarks.
     pub share_run_parameters: bool,
 }
 

@@ -12,9 +12,9 @@ use std::fmt;
 pub enum SimdLevel {
     /// The target's baseline (SSE2 on x86-64; whatever the target has elsewhere).
     Baseline,
-    /// AVX2 and FMA (256-bit vectors).
+    /// AVX2, FMA and F16C (256-bit vectors).
     Avx2,
-    /// AVX-512F/VL (512-bit vectors).
+    /// AVX-512F/VL and F16C (512-bit vectors).
     Avx512,
 }
 
@@ -23,10 +23,16 @@ impl SimdLevel {
     pub fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+                && std::arch::is_x86_feature_detected!("f16c")
+            {
                 return SimdLevel::Avx512;
             }
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+                && std::arch::is_x86_feature_detected!("f16c")
+            {
                 return SimdLevel::Avx2;
             }
         }

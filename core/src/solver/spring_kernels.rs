@@ -9,11 +9,14 @@
 //! picks the build for the chosen [`SimdLevel`]): plain arrays for the baseline, AVX
 //! registers for AVX2 and for AVX-512 (whose 512-bit units gain nothing on a block of 8).
 //! Every build performs the same operations in the same order, so all give the same bits.
-//! Forces are *added* into a window of the force arrays that starts at node `lo`.
+//! Forces are *added* into a window of the force arrays that starts at node `lo`. Linear
+//! runs whose parameters are packed ([`super::spring_pack`]) are walked the same way, each
+//! run's lane block decoding its record from the group's one parameter stream.
 
 use super::lane_block::{Block, LANES, ScalarBlock, max, min};
 use super::simd::SimdLevel;
 use super::spring_layout::{BilinearParams, LinearParams, NO_ENTRY, Part, Run, SpringBlock, SpringLayout, same_group};
+use super::spring_pack::{PackedLinear, decode};
 use crate::real::Real;
 
 /// Springs shorter than this (m) have no direction: they exert no force, and no NaN.
@@ -320,6 +323,133 @@ fn group_tail<T: Real, L: KernelLaw<T>, const DAMP: bool>(
     }
 }
 
+/// One full lane block of a group of linear runs with packed parameters: as
+/// [`group_block`], the parameters decoded from the group's record stream (`records`
+/// starts at this lane block's record of the group's first run).
+#[inline(always)]
+fn packed_group_block<T: Real, B: Block<T>, const DAMP: bool>(
+    packed: &PackedLinear<T>,
+    group: &[Run],
+    r0: usize,
+    records: usize,
+    done: usize,
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+) {
+    let a = group[0].a0 as usize + done;
+    let ends_a = Ends::at(nodes, a, LANES);
+    let state_a: [B; 6] = [
+        B::load(ends_a.x[0], 0),
+        B::load(ends_a.x[1], 0),
+        B::load(ends_a.x[2], 0),
+        B::load(ends_a.v[0], 0),
+        B::load(ends_a.v[1], 0),
+        B::load(ends_a.v[2], 0),
+    ];
+    let mut acc = [B::splat(T::ZERO); 3];
+    let recs = &packed.records[records..records + group.len()];
+    let bases = &packed.runs[r0..r0 + group.len()];
+    for ((run, rec), base) in group.iter().zip(recs).zip(bases) {
+        let b = run.b0 as usize + done;
+        let rest = B::splat(base.base).add(B::load_u16(&rec.rest, 0).mul(B::splat(base.unit)));
+        let k = B::splat(base.k_max).mul(B::load_f16(&rec.k, 0));
+        let c = B::splat(base.c_max).mul(B::load_f16(&rec.c, 0));
+        let params = [rest, c, k, k, k, k];
+        let f = block_forces::<T, B, LinearParams<T>, DAMP>(&params, None, &state_a, &Ends::at(nodes, b, LANES));
+        let wb = b - out.lo;
+        for c in 0..3 {
+            acc[c] = acc[c].add(f[c]);
+            B::load(out.f[c], wb).sub(f[c]).store(out.f[c], wb);
+        }
+    }
+    let wa = a - out.lo;
+    for c in 0..3 {
+        B::load(out.f[c], wa).add(acc[c]).store(out.f[c], wa);
+    }
+}
+
+/// A partial lane block of packed runs, lane by lane with the operations of
+/// [`packed_group_block`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn packed_group_tail<T: Real, const DAMP: bool>(
+    packed: &PackedLinear<T>,
+    group: &[Run],
+    r0: usize,
+    records: usize,
+    done: usize,
+    n: usize,
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+) {
+    let a = group[0].a0 as usize + done;
+    let ea = Ends::at(nodes, a, n);
+    let mut acc = [[T::ZERO; 3]; LANES];
+    for (j, run) in group.iter().enumerate() {
+        let (rec, base) = (&packed.records[records + j], &packed.runs[r0 + j]);
+        let b = run.b0 as usize + done;
+        let eb = Ends::at(nodes, b, n);
+        let wb = b - out.lo;
+        for l in 0..n {
+            let [rest, k, c] = decode(base, rec, l);
+            let chunk: (&[T], &[T], &[T]) = (&[rest], &[k], &[c]);
+            let d = [eb.x[0][l] - ea.x[0][l], eb.x[1][l] - ea.x[1][l], eb.x[2][l] - ea.x[2][l]];
+            let dv = if DAMP {
+                [eb.v[0][l] - ea.v[0][l], eb.v[1][l] - ea.v[1][l], eb.v[2][l] - ea.v[2][l]]
+            } else {
+                [T::ZERO; 3]
+            };
+            let f = spring_force::<T, LinearParams<T>, DAMP>(&chunk, 0, d[0], d[1], d[2], dv[0], dv[1], dv[2], true);
+            for c in 0..3 {
+                acc[l][c] += f[c];
+                out.f[c][wb + l] -= f[c];
+            }
+        }
+    }
+    let wa = a - out.lo;
+    for (l, acc) in acc.iter().enumerate().take(n) {
+        for c in 0..3 {
+            out.f[c][wa + l] += acc[c];
+        }
+    }
+}
+
+/// [`accumulate_block`] for linear runs with packed parameters.
+#[inline(always)]
+fn accumulate_packed<T: Real, B: Block<T>, const DAMP: bool>(
+    block: &SpringBlock<LinearParams<T>>,
+    packed: &PackedLinear<T>,
+    part: &Part,
+    nodes: &NodeView<'_, T>,
+    out: &mut ForceWindow<'_, T>,
+) {
+    let mut start = part.runs.start;
+    let end_all = part.runs.end;
+    let runs = &block.runs;
+    while start < end_all {
+        let mut end = start + 1;
+        while end < end_all && same_group(&runs[start], &runs[end]) {
+            end += 1;
+        }
+        let group = &runs[start..end];
+        let m = group.len();
+        let len = group[0].len as usize;
+        let mut records = packed.first_record[start] as usize;
+        let mut done = 0;
+        while done + LANES <= len {
+            packed_group_block::<T, B, DAMP>(packed, group, start, records, done, nodes, out);
+            records += m;
+            done += LANES;
+        }
+        if done < len {
+            packed_group_tail::<T, DAMP>(packed, group, start, records, done, len - done, nodes, out);
+        }
+        start = end;
+    }
+    // The loose springs, from the f32 parameters.
+    accumulate_block::<T, B, LinearParams<T>, DAMP>(block, &Part { runs: 0..0, loose: part.loose.clone() }, nodes, out);
+}
+
 /// Adds the forces of the runs of `part` (grouped) and of its loose springs.
 #[inline(always)]
 fn accumulate_block<T: Real, B: Block<T>, L: KernelLaw<T>, const DAMP: bool>(
@@ -376,7 +506,13 @@ fn accumulate_all<T: Real, B: Block<T>>(
     nodes: &NodeView<'_, T>,
     out: &mut ForceWindow<'_, T>,
 ) {
-    if let Some(part) = layout.linear.parts.get(t) {
+    if let (Some(part), Some(packed)) = (layout.linear.parts.get(t), &layout.packed) {
+        if damp {
+            accumulate_packed::<T, B, true>(&layout.linear, packed, part, nodes, out);
+        } else {
+            accumulate_packed::<T, B, false>(&layout.linear, packed, part, nodes, out);
+        }
+    } else if let Some(part) = layout.linear.parts.get(t) {
         if damp {
             accumulate_block::<T, B, _, true>(&layout.linear, part, nodes, out);
         } else {
@@ -393,7 +529,7 @@ fn accumulate_all<T: Real, B: Block<T>>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn accumulate_avx2<T: Real>(
     layout: &SpringLayout<T>,
     t: usize,
@@ -405,7 +541,7 @@ fn accumulate_avx2<T: Real>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma,f16c")]
 fn accumulate_avx512<T: Real>(
     layout: &SpringLayout<T>,
     t: usize,

@@ -11,6 +11,7 @@
 //! per-thread parts of equal spring counts; each part accumulates into its own window of
 //! the force arrays (no atomics), and the windows are summed per node afterwards.
 
+use super::spring_pack::{PackedLinear, pack_linear};
 use crate::law::SpringLaw;
 use crate::model::SpringSet;
 use crate::real::Real;
@@ -170,6 +171,10 @@ impl<P> SpringBlock<P> {
 pub struct SpringLayout<T> {
     /// Linear springs.
     pub linear: SpringBlock<LinearParams<T>>,
+    /// The linear runs' parameters packed ([`super::spring_pack`]), when every run streams
+    /// its parameters (no sharing), the precision is f32 and every spring packs within the
+    /// stated bounds; the kernel then reads these instead of `linear.params`.
+    pub packed: Option<PackedLinear<T>>,
     /// Bilinear springs.
     pub bilinear: SpringBlock<BilinearParams<T>>,
 }
@@ -403,7 +408,8 @@ impl<T: Real> SpringLayout<T> {
                 p.c.push(r(c));
             },
         );
-        Self { linear, bilinear }
+        let packed = if share { None } else { pack_linear(&linear).ok() };
+        Self { linear, bilinear, packed }
     }
 
     /// Total number of springs in the layout, null springs included.

@@ -17,8 +17,9 @@ pub enum YardstickImpl {
     Reference,
     /// Lamina's solver with its kernels built for this instruction set.
     Lamina(SimdLevel),
-    /// The same, with every run streaming its parameters per spring (no shared entries):
-    /// the layout before parameter sharing, for side-by-side comparison.
+    /// The same, with every spring streaming its own parameters (no shared entries), as a
+    /// model whose springs all differ would: in f32 packed to 6 bytes a spring in one
+    /// sequential stream per thread (`solver::spring_pack`), in f64 as f64 streams.
     LaminaStreamed(SimdLevel),
 }
 
