@@ -437,6 +437,36 @@ fn tissue_samples(model: &ViewModel, rest: &[Vec3], spacing: f32) -> Vec<(Vec3, 
         }
     }
     out.extend(rest.iter().zip(&tissue).map(|(&p, &t)| (p, Class::Tissue(t))));
+    // Five points along each spring carry its layer's tissue: a layer may have springs and no nodes
+    // of its own (the generator's muscle joins the fat/muscle boundary to the bone), and its
+    // band would otherwise take the tissue of the nodes on either side.
+    for (&[a, b], &t) in model.springs.iter().zip(&model.spring_tissue) {
+        if let (Some(&pa), Some(&pb)) = (rest.get(a as usize), rest.get(b as usize))
+            && t != Tissue::Other
+        {
+            out.extend([0.1f32, 0.3, 0.5, 0.7, 0.9].map(|k| (pa.lerp(pb, k), Class::Tissue(t))));
+        }
+    }
+    // Inside an innermost closed grid with bone beneath (a limb whose grids do not pair up):
+    // bone toward its axis, marrow at its core, rows interpolated so every ring between two
+    // grid rows is filled.
+    if let Some(inner) = model.grids.last().filter(|g| g.wrap && g.beneath == Tissue::Bone && g.rows >= 2) {
+        let point = |c: usize, r: usize| rest.get(inner.nodes[r * inner.cols + c % inner.cols] as usize).copied();
+        for r in 0..inner.rows - 1 {
+            for v in [0.0, 0.25, 0.5, 0.75] {
+                let ring: Option<Vec<Vec3>> =
+                    (0..inner.cols).map(|c| Some(point(c, r)?.lerp(point(c, r + 1)?, v))).collect();
+                let Some(ring) = ring else { continue };
+                let centre = ring.iter().copied().sum::<Vec3>() / ring.len() as f32;
+                out.push((centre, Class::Marrow));
+                for p in &ring {
+                    out.extend([0.25f32, 0.5, 0.75, 0.9, 1.0].map(|t| {
+                        (centre.lerp(*p, t), if t < 0.55 { Class::Marrow } else { Class::Tissue(Tissue::Bone) })
+                    }));
+                }
+            }
+        }
+    }
     out
 }
 
@@ -697,6 +727,23 @@ mod tests {
         let muscle = v.voxel_at(v.texcoord(muscle_point));
         let bone = v.voxel_at(v.texcoord(bone_point));
         let red = |c: [u8; 4]| c[0] as f32 - c[1] as f32;
+        assert!(red(muscle) > 90.0, "muscle {muscle:?}");
+        assert!(red(fat) < 90.0 && fat[2] < fat[1], "fat {fat:?} is yellow");
+        assert!(red(bone) < 40.0 && bone[2] > 150, "bone {bone:?} is ivory");
+    }
+
+    #[test]
+    fn procedural_tissues_of_the_default_limb_show_its_muscle_works() {
+        // The core's default limb (radii 50 / 48 / 40 / 15 mm, axis +z, y up): its muscle layer
+        // has springs but no nodes, and its grids differ in row count. Straight up from the axis
+        // at mid-length, between two rings of grid nodes: 44 mm is fat, 27.5 mm (mid-muscle)
+        // muscle, 11 mm bone (its marrow core is inside 8 mm).
+        let model = lamina_core::scene::Scene::builtin_default().build_model().unwrap();
+        let view = ViewModel::from_core_model(&model);
+        let v = bake_procedural(&view, &view.rest_positions, 96 * 96 * 96, 2).unwrap();
+        let at = |radius_m: f32| v.voxel_at(v.texcoord(Vec3::new(0.0, radius_m, 0.12)));
+        let red = |c: [u8; 4]| c[0] as f32 - c[1] as f32;
+        let (fat, muscle, bone) = (at(0.044), at(0.0275), at(0.011));
         assert!(red(muscle) > 90.0, "muscle {muscle:?}");
         assert!(red(fat) < 90.0 && fat[2] < fat[1], "fat {fat:?} is yellow");
         assert!(red(bone) < 40.0 && bone[2] > 150, "bone {bone:?} is ivory");
