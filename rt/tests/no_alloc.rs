@@ -1,25 +1,24 @@
 //! The per-tick path (loop + monitor recording + summary) never allocates:
 //! a counting global allocator watches 10 000 ticks after warm-up.
 
+use lamina_rt::{DeadlineMonitor, FakeClock, FixedRateLoop, MonitorConfig, OverrunPolicy, RunLimit};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ops::ControlFlow;
-use std::sync::atomic::{AtomicU64, Ordering};
-
-use lamina_rt::{DeadlineMonitor, FakeClock, FixedRateLoop, MonitorConfig, OverrunPolicy, RunLimit};
 
 struct Counting;
-
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
 
 thread_local! {
     /// Count only on the thread under test, only while this is set.
     static COUNTING: Cell<bool> = const { Cell::new(false) };
+    /// This thread's count: tests run in parallel threads, and another test's allocations
+    /// must not show here.
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
 }
 
 fn note() {
     if COUNTING.with(Cell::get) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        ALLOCATIONS.with(|n| n.set(n.get() + 1));
     }
 }
 
@@ -50,11 +49,11 @@ static GLOBAL: Counting = Counting;
 
 /// Allocations made by `f` on this thread.
 fn allocations_in(f: impl FnOnce()) -> u64 {
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = ALLOCATIONS.with(Cell::get);
     COUNTING.with(|c| c.set(true));
     f();
     COUNTING.with(|c| c.set(false));
-    ALLOCATIONS.load(Ordering::Relaxed) - before
+    ALLOCATIONS.with(Cell::get) - before
 }
 
 #[test]
