@@ -170,6 +170,12 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     viewer.args(["--prefix", &prefix, "--size", "960x540", "--samples", "1", "--every", "2"]);
     viewer.arg("--frames").arg(format!("{}", (seconds * 60.0).max(10.0) as u64));
     viewer.arg("--out").arg(&frames_dir);
+    if !display {
+        // Headless frames in flat tissue colours: the software rasteriser draws them faster,
+        // and the first frame does not wait for the volume texture's bake (1.4 s, longer on a
+        // loaded machine), so the frames keep up with the press. A window draws the texture.
+        viewer.arg("--no-texture");
+    }
     if let Some(tool) = &haptic_tool {
         viewer.arg("--focus").arg(focus(tool));
     }

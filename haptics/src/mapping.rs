@@ -48,14 +48,14 @@ impl DeviceMapping {
     /// use lamina_haptics::DeviceMapping;
     ///
     /// let tool = WireTool {
-    ///     device_origin_m: [0.0, 0.1, 0.0],
+    ///     device_origin_m: [0.0, 0.25, 0.0],
     ///     device_rotation: [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
     ///     position_scale: 2.0,
     ///     force_scale: 1.0,
     ///     ..WireTool::default()
     /// };
-    /// // 1 cm up on the device is 2 cm up (model y) in the model.
-    /// assert_eq!(DeviceMapping::from_wire(&tool).to_model([0.0, 0.0, 0.01]), [0.0, 0.12, 0.0]);
+    /// // 12.5 cm up on the device is 25 cm up (model y) in the model.
+    /// assert_eq!(DeviceMapping::from_wire(&tool).to_model([0.0, 0.0, 0.125]), [0.0, 0.5, 0.0]);
     /// ```
     pub fn from_wire(tool: &lamina_bridge::WireTool) -> Self {
         Self {

@@ -25,6 +25,8 @@ mod sparse_cholesky;
 mod spring_kernels;
 mod spring_layout;
 mod spring_pack;
+#[cfg(test)]
+mod spring_pack_checks;
 mod spring_pass;
 mod spring_runs;
 mod vec3s;

@@ -11,7 +11,10 @@
 //! per-thread parts of equal spring counts; each part accumulates into its own window of
 //! the force arrays (no atomics), and the windows are summed per node afterwards.
 
-use super::spring_pack::{PackedLinear, pack_linear};
+use super::lane_block::{LANES, f16_from_f64};
+use super::spring_pack::{
+    PACKED_RELATIVE_BOUND, PackError, PackedLinear, PackedRecord, PackedRun, decode, f32_ulp, scale_of,
+};
 use crate::law::SpringLaw;
 use crate::model::SpringSet;
 use crate::real::Real;
@@ -434,6 +437,89 @@ impl<T: Real> SpringLayout<T> {
             (None, None) => (0, 0),
         }
     }
+}
+
+/// Packs `block`'s runs (its loose springs keep their f32 entries).
+///
+/// # Errors
+/// [`PackError`]: `T` is not f32, or a spring does not pack within the stated bounds.
+pub fn pack_linear<T: Real>(block: &SpringBlock<LinearParams<T>>) -> Result<PackedLinear<T>, PackError> {
+    if T::NAME != "f32" {
+        return Err(PackError::NotF32);
+    }
+    let p = &block.params;
+    let mut out = PackedLinear {
+        runs: Vec::with_capacity(block.runs.len()),
+        first_record: vec![0; block.runs.len()],
+        records: Vec::new(),
+    };
+    // Bases of every run.
+    for (r, run) in block.runs.iter().enumerate() {
+        let first = run.first as usize;
+        let real: Vec<usize> = (first..first + run.len as usize).filter(|&s| block.source[s] != NULL_SPRING).collect();
+        let base = real.iter().map(|&s| p.rest[s].to_f64() as f32).fold(f32::INFINITY, f32::min);
+        let base = if real.is_empty() { 0.0 } else { base };
+        let unit = f32_ulp(base);
+        if !base.is_finite() || !unit.is_finite() {
+            return Err(PackError::RestSpread { run: r });
+        }
+        let k: Vec<T> = real.iter().map(|&s| p.k[s]).collect();
+        let c: Vec<T> = real.iter().map(|&s| p.c[s]).collect();
+        out.runs.push(PackedRun {
+            base: T::from_f64(base.into()),
+            unit: T::from_f64(unit.into()),
+            k_max: scale_of(&k),
+            c_max: scale_of(&c),
+        });
+    }
+    // Records, group by group, lane block by lane block, run by run.
+    let runs = &block.runs;
+    let mut start = 0;
+    while start < runs.len() {
+        let mut end = start + 1;
+        while end < runs.len() && same_group(&runs[start], &runs[end]) {
+            end += 1;
+        }
+        let len = runs[start].len as usize;
+        let group_first = out.records.len();
+        for (j, r) in (start..end).enumerate() {
+            out.first_record[r] = (group_first + j) as u32;
+        }
+        for done in (0..len).step_by(LANES) {
+            for r in start..end {
+                let pr = out.runs[r];
+                let mut rec = PackedRecord::default();
+                for l in 0..LANES.min(len - done) {
+                    let s = runs[r].first as usize + done + l;
+                    if block.source[s] == NULL_SPRING {
+                        // k = c = 0: no force, whatever the rest length.
+                        continue;
+                    }
+                    let (rest, k, c) = (p.rest[s], p.k[s], p.c[s]);
+                    let steps = (rest.to_f64() - pr.base.to_f64()) / pr.unit.to_f64();
+                    if !(0.0..=65535.0).contains(&steps) || steps.fract() != 0.0 {
+                        return Err(PackError::RestSpread { run: r });
+                    }
+                    rec.rest[l] = steps as u16;
+                    rec.k[l] = f16_from_f64(k.to_f64() / pr.k_max.to_f64());
+                    rec.c[l] = f16_from_f64(c.to_f64() / pr.c_max.to_f64());
+                    let [rest2, k2, c2] = decode(&pr, &rec, l);
+                    let close = |got: T, want: T| {
+                        (got.to_f64() - want.to_f64()).abs() <= PACKED_RELATIVE_BOUND * want.to_f64().abs()
+                    };
+                    if rest2.to_f64() != rest.to_f64() {
+                        return Err(PackError::RestSpread { run: r });
+                    }
+                    if !close(k2, k) || !close(c2, c) {
+                        return Err(PackError::Factor { run: r });
+                    }
+                }
+                out.records.push(rec);
+            }
+        }
+        start = end;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
