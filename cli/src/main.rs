@@ -24,7 +24,6 @@ mod yardstick_cmd;
 use clap::{Parser, Subcommand};
 use lamina_core::solver::{IntegratorKind, SimdLevel};
 use lamina_core::yardstick::LatticeSize;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -460,13 +459,7 @@ fn run(command: Command) -> Result<(), String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_max_level(cli.log_level)
-        .with_target(false)
-        .without_time()
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
+    lamina_rt::init_logging(cli.log_level);
     match run(cli.command).map_err(anyhow::Error::msg) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -45,6 +45,7 @@
 pub mod clock;
 pub mod fixed_rate;
 pub mod host;
+pub mod logging;
 pub mod monitor;
 pub mod ring;
 pub mod setup;
@@ -57,6 +58,7 @@ pub use clock::{Clock, ComputeModel, DEFAULT_SPIN_NS, FakeClock, MonotonicClock,
 pub use fixed_rate::{
     FixedRateLoop, FixedRateLoopCreateError, OverrunPolicy, RunLimit, RunSummary, StopReason, period_ns_from_rate_hz,
 };
+pub use logging::init_logging;
 pub use monitor::{
     DEFAULT_MAX_TRACKABLE_NS, DEFAULT_PERIOD_NS, DeadlineMonitor, DeadlineMonitorCreateError, MonitorConfig,
     MonitorReportWriteError, SIGNIFICANT_DIGITS, SendProbe,

@@ -6,7 +6,6 @@
 //! lamina-viewer --synthetic                                           # window (headless without a display)
 //! ```
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -433,13 +432,7 @@ static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_max_level(args.log_level)
-        .with_target(false)
-        .without_time()
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
+    lamina_rt::init_logging(args.log_level);
     let _ = lamina_rt::install_stop_handler(&STOP);
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
