@@ -307,13 +307,14 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
     let c = sim.counters();
     let frames = c.frames.max(1) as f64;
     println!(
-        "per frame: springs {:.1} us, nodes {:.1} us, external {:.1} us, bone {:.1} us, guard {:.1} us, implicit {:.1} us",
+        "per frame: springs {:.1} us, nodes {:.1} us, external {:.1} us, bone {:.1} us, guard {:.1} us, implicit {:.1} us (preconditioner {:.1} us)",
         c.springs.as_secs_f64() * 1e6 / frames,
         c.nodes.as_secs_f64() * 1e6 / frames,
         c.external.as_secs_f64() * 1e6 / frames,
         c.bone.as_secs_f64() * 1e6 / frames,
         c.guard.as_secs_f64() * 1e6 / frames,
-        c.implicit.as_secs_f64() * 1e6 / frames
+        c.implicit.as_secs_f64() * 1e6 / frames,
+        c.preconditioner.as_secs_f64() * 1e6 / frames
     );
     let g = sim.guard_totals();
     let state = sim.state();

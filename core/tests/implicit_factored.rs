@@ -3,6 +3,7 @@
 
 use lamina_core::law::{Bilinear, SpringLaw};
 use lamina_core::model::{Layer, Model, NodeKind, Tissue};
+use lamina_core::real::Real;
 use lamina_core::scene::{Scene, ToolSource};
 use lamina_core::solver::{Effects, IntegrationParameters, IntegratorKind, Simulation, SphereTool};
 
@@ -67,19 +68,26 @@ fn implicit_factored_bilinear_chain_reaches_the_static_sag_in_both_phases_works(
     assert!(stiff >= 2 && stiff < n, "both phases are reached ({stiff} stiff springs)");
 }
 
-/// Presses the built-in default scene's tool 8 mm into the skin over 0.5 s, holds it to
-/// 2 s, and returns the vertical force on the tool, N.
-fn press_force(integrator: IntegratorKind) -> f64 {
+/// The built-in default scene with its tool held at the device origin, stepped by
+/// `integrator` on `threads` threads; returns the simulation and the origin, m.
+fn default_scene_with_tool<T: Real>(integrator: IntegratorKind, threads: usize) -> (Simulation<T>, [f64; 3]) {
     let scene = Scene::builtin_default();
     let model = scene.build_model().unwrap();
     let tool = scene.tool.expect("the default scene has a tool");
     let ToolSource::Haptics { device_origin: origin, .. } = tool.source else { panic!("a haptic tool") };
     let mut params = scene.solver.clone();
     params.integrator = integrator;
+    params.threads = threads;
     let mut effects = scene.effects.clone();
     effects.tool =
         Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: origin, velocity: [0.0; 3] });
-    let mut sim = Simulation::<f32>::new(&model, params, effects).unwrap();
+    (Simulation::<T>::new(&model, params, effects).unwrap(), origin)
+}
+
+/// Presses the built-in default scene's tool 8 mm into the skin over 0.5 s, holds it to
+/// 2 s, and returns the vertical force on the tool, N.
+fn press_force(integrator: IntegratorKind) -> f64 {
+    let (mut sim, origin) = default_scene_with_tool::<f32>(integrator, Scene::builtin_default().solver.threads);
     for frame in 0..2000 {
         let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
         sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
@@ -98,4 +106,33 @@ fn implicit_factored_press_force_matches_the_explicit_solver_works() {
         (factored - explicit).abs() <= 0.05 * explicit,
         "implicit_factored {factored} N, symplectic Euler {explicit} N"
     );
+}
+
+#[test]
+fn implicit_factored_on_two_threads_splits_its_sweeps_and_agrees_with_one_works() {
+    // The default limb pressed 6 mm over 200 ms, in f64: on two threads the preconditioner's
+    // factor is ordered in two halves and a separator (a different ordering, so different
+    // round-off), on one thread by minimum degree alone. Same matrix, same steps.
+    let run = |threads: usize| {
+        let (mut sim, origin) = default_scene_with_tool::<f64>(IntegratorKind::ImplicitFactored, threads);
+        for frame in 0..200 {
+            let depth = 0.006 * (frame as f64 / 200.0);
+            sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
+            sim.step();
+        }
+        let sweeps = sim.implicit_factored().unwrap().preconditioner_threads();
+        (sweeps, sim.state().x.clone(), sim.tool_feedback().force[1])
+    };
+    let (one_sweeps, one, one_force) = run(1);
+    let (two_sweeps, two, two_force) = run(2);
+    assert_eq!((one_sweeps, two_sweeps), (1, 2));
+    assert!(one_force > 0.01, "the tool presses ({one_force} N)");
+    let worst = (0..one.len())
+        .map(|i| {
+            let (a, b) = (one.get_f64(i), two.get_f64(i));
+            (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "positions differ by {worst:e} m");
+    assert!((one_force - two_force).abs() < 1e-6 * one_force, "{one_force} N against {two_force} N");
 }

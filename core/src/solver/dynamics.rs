@@ -67,6 +67,8 @@ pub struct StageCounters {
     pub guard: Duration,
     /// Implicit solve (tangent assembly and conjugate gradients).
     pub implicit: Duration,
+    /// Of `implicit`: the prefactored preconditioner's triangular solves.
+    pub preconditioner: Duration,
     /// Conjugate-gradient iterations.
     pub cg_iterations: u64,
     /// Frames stepped.

@@ -20,6 +20,7 @@ use super::dynamics::Dynamics;
 use super::simd::SimdLevel;
 use super::sparse_cholesky::{CholeskyFactor, FactorBuildError, SolveScratch};
 use super::vec3s::Vec3s;
+use super::worker_pool::WorkerPool;
 use crate::law::SpringLaw;
 use crate::model::Model;
 use crate::real::Real;
@@ -106,11 +107,17 @@ impl<T: Real> FactoredPreconditioner<T> {
             }
         }
         lower.extend(diag.iter().enumerate().map(|(r, &v)| (r as u32, r as u32, v)));
-        let factor = CholeskyFactor::<T>::new(m as usize, &lower, simd)?;
+        let factor = if dynamics.pool.threads() >= 2 {
+            // Split at a plane across x, y or z, its two halves' sweeps on two threads.
+            let keys = rest_coordinates(model, &row);
+            CholeskyFactor::<T>::new_bisected(m as usize, &lower, &keys, simd)?
+        } else {
+            CholeskyFactor::<T>::new(m as usize, &lower, simd)?
+        };
         for r in row.iter_mut().filter(|r| **r != HELD) {
             *r = factor.position(*r as usize) as u32;
         }
-        Ok(Self { row, scratch: factor.scratch(), work: Vec3s::zeros(m as usize), factor })
+        Ok(Self { row, scratch: factor.scratch(), work: Vec3s::zeros(factor.rhs_len()), factor })
     }
 
     /// Stored entries of the factor.
@@ -118,16 +125,29 @@ impl<T: Real> FactoredPreconditioner<T> {
         self.factor.stored_entries()
     }
 
-    /// `z = P⁻¹ r` over free nodes (held nodes get 0). Allocates nothing.
-    pub fn apply(&mut self, r: &Vec3s<T>, z: &mut Vec3s<T>) {
+    /// True when the triangular sweeps run on two threads.
+    pub fn is_split(&self) -> bool {
+        self.factor.is_split()
+    }
+
+    /// `z = P⁻¹ r` over free nodes (held nodes get 0), the sweeps on `pool`. Allocates
+    /// nothing.
+    pub fn apply(&mut self, pool: &WorkerPool, r: &Vec3s<T>, z: &mut Vec3s<T>) {
         for (i, &p) in self.row.iter().enumerate() {
             if p != HELD {
                 self.work.set(p as usize, r.get(i));
             }
         }
-        self.factor.solve_in_place(self.work.slices_mut(), &mut self.scratch);
+        self.factor.solve_in_place(self.work.slices_mut(), &mut self.scratch, pool);
         for (i, &p) in self.row.iter().enumerate() {
             z.set(i, if p != HELD { self.work.get(p as usize) } else { [T::ZERO; 3] });
         }
     }
+}
+
+/// Per axis, the free nodes' rest coordinates (in `row` order), m.
+fn rest_coordinates(model: &Model, row: &[u32]) -> Vec<Vec<f64>> {
+    (0..3)
+        .map(|axis| (0..row.len()).filter(|&i| row[i] != HELD).map(|i| model.nodes.position[i][axis]).collect())
+        .collect()
 }

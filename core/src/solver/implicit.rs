@@ -331,7 +331,7 @@ impl<T: Real> ImplicitSolver<T> {
             }
         };
         match &mut self.factored {
-            Some(f) => f.apply(&self.r, &mut self.z),
+            Some(f) => f.apply(&dynamics.pool, &self.r, &mut self.z),
             None => precondition(&self.r, &mut self.z, &self.diag),
         }
         self.p.copy_from(&self.z);
@@ -359,7 +359,7 @@ impl<T: Real> ImplicitSolver<T> {
                 }
             }
             match &mut self.factored {
-                Some(f) => f.apply(&self.r, &mut self.z),
+                Some(f) => f.apply(&dynamics.pool, &self.r, &mut self.z),
                 None => precondition(&self.r, &mut self.z, &self.diag),
             }
             let rz_new = dot(&self.r, &self.z);

@@ -155,6 +155,12 @@ impl<T: Real> ImplicitFactored<T> {
         self.pre.factor_entries()
     }
 
+    /// Threads the preconditioner's triangular sweeps run on (2 when its factor splits into
+    /// two halves and a separator, on a pool of 2 or more).
+    pub fn preconditioner_threads(&self) -> usize {
+        if self.pre.is_split() { 2 } else { 1 }
+    }
+
     /// Relative residual `‖f − A Δx‖ / ‖f‖` of the last step's solve.
     pub fn last_residual(&self) -> f64 {
         self.last_residual
@@ -197,17 +203,30 @@ impl<T: Real> ImplicitFactored<T> {
             }
         }
         if let Some(k) = dynamics.effects.skin_volume {
-            for (t, out) in self.tet_grad.iter_mut().enumerate() {
-                let (grad, inv_v0) = dynamics.skin_volume.gradient(t, &state.x);
-                let w = (k * inv_v0).sqrt();
-                *out = grad.map(|g| g.map(|c| T::from_f64(w * c)));
-            }
+            // Each worker its share of the tetrahedra.
+            let (volume, x) = (&dynamics.skin_volume, &state.x);
+            let tets = self.tet_grad.len();
+            let workers = dynamics.pool.threads();
+            let grads = super::disjoint::DisjointSlice::new(self.tet_grad.as_mut_slice());
+            dynamics.pool.run(&|worker| {
+                let share = tets * worker / workers..tets * (worker + 1) / workers;
+                let first = share.start;
+                // SAFETY: the workers' shares are disjoint.
+                let out = unsafe { grads.range_mut(share) };
+                for (i, out) in out.iter_mut().enumerate() {
+                    let (grad, inv_v0) = volume.gradient(first + i, x);
+                    let w = (k * inv_v0).sqrt();
+                    *out = grad.map(|g| g.map(|c| T::from_f64(w * c)));
+                }
+            });
         }
         let fnorm = dot(&self.r, &self.r).sqrt();
         self.dx.fill_zero();
         let mut rz = 0.0;
         for k in 0..self.iterations {
-            self.pre.apply(&self.r, &mut self.z);
+            let t_pre = Instant::now();
+            self.pre.apply(&dynamics.pool, &self.r, &mut self.z);
+            dynamics.counters.preconditioner += t_pre.elapsed();
             let rz_new = dot(&self.r, &self.z);
             if !(rz_new.is_finite() && rz_new > 0.0) {
                 break;

@@ -4,6 +4,7 @@
 //! data beyond what it derived for speed: the streaming spring layout, node arrays in
 //! precision `T`, and scratch buffers allocated once.
 
+mod bisected_ordering;
 mod build_checks;
 mod build_error;
 mod critical_step;

@@ -16,10 +16,14 @@
 //! its place in the right-hand side, so callers assemble straight into solve order.
 
 use crate::real::Real;
+use crate::solver::bisected_ordering::bisect;
+use crate::solver::disjoint::DisjointSlice;
 use crate::solver::lane_block::{Block, LANES, ScalarBlock};
 use crate::solver::simd::SimdLevel;
+use crate::solver::worker_pool::WorkerPool;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
@@ -123,19 +127,38 @@ struct Supernode {
     inverse_t: Packed,
 }
 
-/// Scratch of one solve, sized once for its factor.
+/// Scratch of one solve, sized once for its factor: one per half of a split factor.
 #[derive(Clone, Debug)]
 pub struct SolveScratch<T> {
+    parts: [SweepScratch<T>; 2],
+}
+
+/// Scratch of one thread's sweeps.
+#[derive(Clone, Debug)]
+struct SweepScratch<T> {
     /// Per component: a product's input.
     input: [Vec<T>; 3],
     /// Per component: a product's output.
     output: [Vec<T>; 3],
 }
 
+/// Where the halves of a split factor lie (see [`CholeskyFactor::new_bisected`]).
+#[derive(Clone, Copy, Debug)]
+struct Split {
+    /// A's supernodes are `..a_end`, B's `a_end..b_end`, the separator's `b_end..`.
+    a_end: usize,
+    b_end: usize,
+    /// Rows in the separator; their copy for B's half is at positions `..separator`.
+    separator: usize,
+    /// B's half addresses positions `..boundary`, A's half `boundary..` (separator first).
+    boundary: usize,
+}
+
 /// `A = L Lᵀ` of a sparse SPD matrix, ready to solve `A X = B` for three right-hand sides.
 #[derive(Clone, Debug)]
 pub struct CholeskyFactor<T> {
-    n: usize,
+    /// Right-hand side length: `n`, plus the separator's copy when split.
+    len: usize,
     /// `position[row]`: where matrix row `row` sits in factor order.
     position: Vec<u32>,
     supernodes: Vec<Supernode>,
@@ -144,43 +167,15 @@ pub struct CholeskyFactor<T> {
     /// Largest product dimension, padded to whole lane blocks.
     longest: usize,
     simd: SimdLevel,
+    split: Option<Split>,
 }
 
 impl<T: Real> CholeskyFactor<T> {
     /// Factors the `n × n` symmetric matrix given by its lower-triangle entries
     /// `(row, col, value)` with `row ≥ col` (duplicates are summed); solves run with the
-    /// kernels of `simd` (lowered to what the CPU has).
+    /// kernels of `simd` (lowered to what the CPU has), on one thread.
     pub fn new(n: usize, lower: &[(u32, u32, f64)], simd: SimdLevel) -> Result<Self, FactorBuildError> {
-        let mut triplets = Vec::with_capacity(lower.len());
-        for &(r, c, v) in lower {
-            if r as usize >= n || c > r || !v.is_finite() {
-                return Err(FactorBuildError::BadEntry { row: r, col: c });
-            }
-            triplets.push(Triplet::new(r as usize, c as usize, v));
-        }
-        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets)
-            .map_err(|e| FactorBuildError::Factorisation(format!("{e:?}")))?;
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic = factorize_symbolic_cholesky(a.symbolic(), Side::Lower, SymmetricOrdering::Amd, params)
-            .map_err(|e| FactorBuildError::Factorisation(format!("{e:?}")))?;
-        let mut l_values = vec![0.0f64; symbolic.len_val()];
-        let mut buffer =
-            MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()))
-                .map_err(|e| FactorBuildError::Factorisation(format!("{e:?}")))?;
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut l_values,
-                a.as_ref(),
-                Side::Lower,
-                LltRegularization::default(),
-                Par::Seq,
-                MemStack::new(&mut buffer),
-                Default::default(),
-            )
-            .map_err(|_| FactorBuildError::NotPositiveDefinite)?;
+        let (symbolic, l_values) = factor_numeric(n, lower, None)?;
         let mut position = vec![0u32; n];
         match symbolic.perm() {
             Some(perm) => {
@@ -192,39 +187,111 @@ impl<T: Real> CholeskyFactor<T> {
             None => position.iter_mut().enumerate().for_each(|(i, p)| *p = i as u32),
         }
         let mut packer = Packer::<T>::new();
-        match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(supernodal) => {
-                let factor = SupernodalLltRef::<usize, f64>::new(supernodal, &l_values);
-                for s in 0..supernodal.n_supernodes() {
-                    let node = factor.supernode(s);
-                    let block = node.val();
-                    packer.push(node.start(), block.ncols(), node.pattern(), |i, j| block[(i, j)])?;
-                }
-            }
-            // Very sparse matrices (a diagonal one, say) get a column-by-column factor:
-            // each column is a supernode of width 1, its diagonal entry first.
-            SymbolicCholeskyRaw::Simplicial(simplicial) => {
-                let (col_ptr, row_idx) = (simplicial.col_ptr(), simplicial.row_idx());
-                for j in 0..n {
-                    let range = col_ptr[j]..col_ptr[j + 1];
-                    let (rows, vals) = (&row_idx[range.clone()], &l_values[range]);
-                    if rows.first() != Some(&j) {
-                        return Err(FactorBuildError::Factorisation(format!(
-                            "column {j} of the factor has no diagonal"
-                        )));
-                    }
-                    packer.push(j, 1, &rows[1..], |i, _| vals[i])?;
-                }
-            }
-        }
+        let place = |first: usize, _width: usize, rows: &[usize]| Some((first, rows.to_vec()));
+        pack_factor(&symbolic, &l_values, &mut packer, place)?;
         let Packer { supernodes, pattern, values, longest } = packer;
-        Ok(Self { n, position, supernodes, pattern, values, longest, simd: simd.clamp_to_cpu() })
+        Ok(Self { len: n, position, supernodes, pattern, values, longest, simd: simd.clamp_to_cpu(), split: None })
+    }
+
+    /// As [`CholeskyFactor::new`], ordered so that the triangular sweeps run on two threads:
+    /// the rows are split at the median of one of `keys` (each one value per row; the one with
+    /// the smallest separator) into two halves and the separator between them
+    /// (`bisected_ordering.rs`). Falls back to [`CholeskyFactor::new`]
+    /// when the matrix does not split (a half empty, a separator over a quarter of the rows).
+    pub fn new_bisected(
+        n: usize,
+        lower: &[(u32, u32, f64)],
+        keys: &[Vec<f64>],
+        simd: SimdLevel,
+    ) -> Result<Self, FactorBuildError> {
+        let Some(bisection) = bisect(n, lower, keys).map_err(|e| FactorBuildError::Factorisation(e.to_string()))?
+        else {
+            return Self::new(n, lower, simd);
+        };
+        let (symbolic, l_values) = factor_numeric(n, lower, Some(&bisection.order))?;
+        let (na, nb, ns) = (bisection.a, bisection.b, bisection.separator);
+        // Positions: separator copy | B | separator | A. B's region is 0..boundary, A's
+        // boundary..len; a supernode's rows are addressed within its region.
+        let boundary = ns + nb;
+        let class = |col: usize| {
+            if col < na {
+                0
+            } else if col < na + nb {
+                1
+            } else {
+                2
+            }
+        };
+        let absolute = |col: usize| match class(col) {
+            0 => 2 * ns + nb + col,
+            1 => ns + (col - na),
+            _ => boundary + (col - na - nb),
+        };
+        let mut position = vec![0u32; n];
+        for (col, &row) in bisection.order.iter().enumerate() {
+            position[row] = absolute(col) as u32;
+        }
+        let mut classes = Vec::new();
+        let place = |first: usize, width: usize, rows: &[usize]| {
+            let last = first + width - 1;
+            let c = if class(last) == 0 {
+                0
+            } else if class(first) == 1 && class(last) == 1 {
+                1
+            } else if class(first) == 0 {
+                return None; // spans A and the separator: B is empty
+            } else {
+                2
+            };
+            classes.push(c);
+            let mapped: Option<Vec<usize>> = rows
+                .iter()
+                .map(|&r| match (c, class(r)) {
+                    (0, 0 | 2) => Some(absolute(r) - boundary),
+                    (1, 1) => Some(absolute(r)),
+                    (1, 2) => Some(absolute(r) - boundary),
+                    (2, 2) => Some(absolute(r)),
+                    _ => None,
+                })
+                .collect();
+            let first = if c == 0 { absolute(first) - boundary } else { absolute(first) };
+            Some((first, mapped?))
+        };
+        let mut packer = Packer::<T>::new();
+        if !pack_factor(&symbolic, &l_values, &mut packer, place)? || !classes.is_sorted() {
+            return Self::new(n, lower, simd);
+        }
+        let a_end = classes.iter().filter(|&&c| c == 0).count();
+        let b_end = a_end + classes.iter().filter(|&&c| c == 1).count();
+        let Packer { supernodes, pattern, values, longest } = packer;
+        Ok(Self {
+            len: n + ns,
+            position,
+            supernodes,
+            pattern,
+            values,
+            longest,
+            simd: simd.clamp_to_cpu(),
+            split: Some(Split { a_end, b_end, separator: ns, boundary }),
+        })
     }
 
     /// Where matrix row `row` sits in the right-hand side and solution.
     #[inline]
     pub fn position(&self, row: usize) -> usize {
         self.position[row] as usize
+    }
+
+    /// Length of a right-hand side: the matrix's rows, plus a copy of the separator's rows
+    /// when the sweeps run on two threads (positions no row maps to; their content is
+    /// overwritten).
+    pub fn rhs_len(&self) -> usize {
+        self.len
+    }
+
+    /// True when the sweeps run on two threads.
+    pub fn is_split(&self) -> bool {
+        self.split.is_some()
     }
 
     /// Stored coefficients of the packed factor (both sweeps).
@@ -234,37 +301,214 @@ impl<T: Real> CholeskyFactor<T> {
 
     /// Scratch for [`CholeskyFactor::solve_in_place`].
     pub fn scratch(&self) -> SolveScratch<T> {
-        let v = || vec![T::ZERO; self.longest];
-        SolveScratch { input: [v(), v(), v()], output: [v(), v(), v()] }
+        let part = || {
+            let v = || vec![T::ZERO; self.longest];
+            SweepScratch { input: [v(), v(), v()], output: [v(), v(), v()] }
+        };
+        SolveScratch { parts: [part(), part()] }
     }
 
-    /// Overwrites `b` (three components, factor order) with `A⁻¹ b`. Allocates nothing.
-    pub fn solve_in_place(&self, b: [&mut [T]; 3], scratch: &mut SolveScratch<T>) {
+    /// Overwrites `b` (three components of [`CholeskyFactor::rhs_len`], factor order) with
+    /// `A⁻¹ b`; a split factor's two halves run on `pool`'s first two workers (one after the
+    /// other on a one-thread pool). Allocates nothing.
+    pub fn solve_in_place(&self, mut b: [&mut [T]; 3], scratch: &mut SolveScratch<T>, pool: &WorkerPool) {
         for c in &b {
-            assert_eq!(c.len(), self.n, "right-hand side has the wrong length");
+            assert_eq!(c.len(), self.len, "right-hand side has the wrong length");
         }
+        let all = 0..self.supernodes.len();
+        let Some(split) = self.split else {
+            self.sweep(all.clone(), Sweep::Forward, &mut b, &mut scratch.parts[0]);
+            self.sweep(all, Sweep::Backward, &mut b, &mut scratch.parts[0]);
+            return;
+        };
+        let (ns, boundary) = (split.separator, split.boundary);
+        let halves = [split.a_end..split.b_end, 0..split.a_end];
+        for c in b.iter_mut() {
+            c[..ns].fill(T::ZERO);
+        }
+        self.sweep_halves(&halves, Sweep::Forward, &mut b, scratch, pool);
+        // The separator's rows gather what B's half subtracted into their copy.
+        for c in b.iter_mut() {
+            let (copy, rest) = c.split_at_mut(boundary);
+            for (s, &d) in rest[..ns].iter_mut().zip(&copy[..ns]) {
+                *s += d;
+            }
+        }
+        let separator = split.b_end..self.supernodes.len();
+        self.sweep(separator.clone(), Sweep::Forward, &mut b, &mut scratch.parts[0]);
+        self.sweep(separator, Sweep::Backward, &mut b, &mut scratch.parts[0]);
+        for c in b.iter_mut() {
+            c.copy_within(boundary..boundary + ns, 0);
+        }
+        self.sweep_halves(&halves, Sweep::Backward, &mut b, scratch, pool);
+    }
+
+    /// One sweep over `halves[0]` (B's supernodes, on region `..boundary`) and `halves[1]`
+    /// (A's, on region `boundary..`), on two workers.
+    fn sweep_halves(
+        &self,
+        halves: &[std::ops::Range<usize>; 2],
+        dir: Sweep,
+        b: &mut [&mut [T]; 3],
+        scratch: &mut SolveScratch<T>,
+        pool: &WorkerPool,
+    ) {
+        let boundary = self.split.map_or(0, |s| s.boundary);
+        let [b0, b1, b2] = b;
+        let (l0, h0) = b0.split_at_mut(boundary);
+        let (l1, h1) = b1.split_at_mut(boundary);
+        let (l2, h2) = b2.split_at_mut(boundary);
+        let mut regions = [[l0, l1, l2], [h0, h1, h2]];
+        let regions = DisjointSlice::new(&mut regions);
+        let parts = DisjointSlice::new(&mut scratch.parts);
+        let threads = pool.threads();
+        pool.run(&|worker| {
+            let mine: &[usize] = match (threads, worker) {
+                (1, _) => &[0, 1],
+                (_, 0) => &[1],
+                (_, 1) => &[0],
+                _ => &[],
+            };
+            for &half in mine {
+                // SAFETY: half `i` (its region and scratch) is taken by one worker only.
+                let (region, part) =
+                    unsafe { (&mut regions.range_mut(half..half + 1)[0], &mut parts.range_mut(half..half + 1)[0]) };
+                self.sweep(halves[half].clone(), dir, region, part);
+            }
+        });
+    }
+
+    /// Forward or backward over the supernodes `range` of `b`, with the SIMD kernels.
+    fn sweep(&self, range: std::ops::Range<usize>, dir: Sweep, b: &mut [&mut [T]; 3], scratch: &mut SweepScratch<T>) {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `simd` was clamped to what this CPU has.
-            SimdLevel::Avx2 | SimdLevel::Avx512 => unsafe { solve_avx2(self, b, scratch) },
-            _ => solve::<T, ScalarBlock<T>>(self, b, scratch),
+            SimdLevel::Avx2 | SimdLevel::Avx512 => unsafe { sweep_avx2(self, range, dir, b, scratch) },
+            _ => sweep::<T, ScalarBlock<T>>(self, range, dir, b, scratch),
         }
     }
+}
+
+/// Which triangular sweep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Sweep {
+    /// `b ← L⁻¹ b`, supernodes in order.
+    Forward,
+    /// `b ← L⁻ᵀ b`, supernodes in reverse.
+    Backward,
+}
+
+/// Runs faer's fill-reducing ordering (`order`, when given, instead) and numeric supernodal
+/// factorisation of the lower-triangle entries `lower`, in `f64`.
+fn factor_numeric(
+    n: usize,
+    lower: &[(u32, u32, f64)],
+    order: Option<&[usize]>,
+) -> Result<(faer::sparse::linalg::cholesky::SymbolicCholesky<usize>, Vec<f64>), FactorBuildError> {
+    let mut triplets = Vec::with_capacity(lower.len());
+    for &(r, c, v) in lower {
+        if r as usize >= n || c > r || !v.is_finite() {
+            return Err(FactorBuildError::BadEntry { row: r, col: c });
+        }
+        triplets.push(Triplet::new(r as usize, c as usize, v));
+    }
+    let fail = |e: &dyn std::fmt::Debug| FactorBuildError::Factorisation(format!("{e:?}"));
+    let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).map_err(|e| fail(&e))?;
+    let params = CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    };
+    let inverse: Option<Vec<usize>> = order.map(|o| {
+        let mut inv = vec![0; n];
+        o.iter().enumerate().for_each(|(pos, &row)| inv[row] = pos);
+        inv
+    });
+    let ordering = match (order, &inverse) {
+        (Some(fwd), Some(inv)) if fwd.len() == n => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
+        _ => SymmetricOrdering::Amd,
+    };
+    let symbolic = factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, params).map_err(|e| fail(&e))?;
+    let mut l_values = vec![0.0f64; symbolic.len_val()];
+    let mut buffer = MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()))
+        .map_err(|e| fail(&e))?;
+    symbolic
+        .factorize_numeric_llt::<f64>(
+            &mut l_values,
+            a.as_ref(),
+            Side::Lower,
+            LltRegularization::default(),
+            Par::Seq,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        )
+        .map_err(|_| FactorBuildError::NotPositiveDefinite)?;
+    Ok((symbolic, l_values))
+}
+
+/// Packs every supernode of a numeric factor, placed by `place(first, width, rows)` (factor
+/// order in, stored column and rows out). `Ok(false)` when `place` refuses a supernode.
+fn pack_factor<T: Real>(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    l_values: &[f64],
+    packer: &mut Packer<T>,
+    mut place: impl FnMut(usize, usize, &[usize]) -> Option<(usize, Vec<usize>)>,
+) -> Result<bool, FactorBuildError> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(supernodal) => {
+            let factor = SupernodalLltRef::<usize, f64>::new(supernodal, l_values);
+            for s in 0..supernodal.n_supernodes() {
+                let node = factor.supernode(s);
+                let block = node.val();
+                let Some((first, rows)) = place(node.start(), block.ncols(), node.pattern()) else {
+                    return Ok(false);
+                };
+                packer.push(first, block.ncols(), &rows, |i, j| block[(i, j)])?;
+            }
+        }
+        // Very sparse matrices (a diagonal one, say) get a column-by-column factor: each
+        // column is a supernode of width 1, its diagonal entry first.
+        SymbolicCholeskyRaw::Simplicial(simplicial) => {
+            let (col_ptr, row_idx) = (simplicial.col_ptr(), simplicial.row_idx());
+            for j in 0..col_ptr.len() - 1 {
+                let range = col_ptr[j]..col_ptr[j + 1];
+                let (rows, vals) = (&row_idx[range.clone()], &l_values[range]);
+                if rows.first() != Some(&j) {
+                    return Err(FactorBuildError::Factorisation(format!("column {j} of the factor has no diagonal")));
+                }
+                let Some((first, below)) = place(j, 1, &rows[1..]) else {
+                    return Ok(false);
+                };
+                packer.push(first, 1, &below, |i, _| vals[i])?;
+            }
+        }
+    }
+    Ok(true)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn solve_avx2<T: Real>(f: &CholeskyFactor<T>, b: [&mut [T]; 3], scratch: &mut SolveScratch<T>) {
-    solve::<T, T::AvxBlock>(f, b, scratch);
+fn sweep_avx2<T: Real>(
+    f: &CholeskyFactor<T>,
+    range: std::ops::Range<usize>,
+    dir: Sweep,
+    b: &mut [&mut [T]; 3],
+    scratch: &mut SweepScratch<T>,
+) {
+    sweep::<T, T::AvxBlock>(f, range, dir, b, scratch);
 }
 
 #[inline(always)]
-fn solve<T: Real, B: Block<T>>(f: &CholeskyFactor<T>, mut b: [&mut [T]; 3], scratch: &mut SolveScratch<T>) {
-    for s in &f.supernodes {
-        forward::<T, B>(f, s, &mut b, scratch);
-    }
-    for s in f.supernodes.iter().rev() {
-        backward::<T, B>(f, s, &mut b, scratch);
+fn sweep<T: Real, B: Block<T>>(
+    f: &CholeskyFactor<T>,
+    range: std::ops::Range<usize>,
+    dir: Sweep,
+    b: &mut [&mut [T]; 3],
+    scratch: &mut SweepScratch<T>,
+) {
+    let supernodes = &f.supernodes[range];
+    match dir {
+        Sweep::Forward => supernodes.iter().for_each(|s| forward::<T, B>(f, s, b, scratch)),
+        Sweep::Backward => supernodes.iter().rev().for_each(|s| backward::<T, B>(f, s, b, scratch)),
     }
 }
 
@@ -316,7 +560,7 @@ fn forward<T: Real, B: Block<T>>(
     f: &CholeskyFactor<T>,
     s: &Supernode,
     b: &mut [&mut [T]; 3],
-    scratch: &mut SolveScratch<T>,
+    scratch: &mut SweepScratch<T>,
 ) {
     let (first, width, rows) = (s.first as usize, s.width as usize, s.rows as usize);
     // x = D⁻¹ b_block, into the block's columns.
@@ -349,7 +593,7 @@ fn backward<T: Real, B: Block<T>>(
     f: &CholeskyFactor<T>,
     s: &Supernode,
     b: &mut [&mut [T]; 3],
-    scratch: &mut SolveScratch<T>,
+    scratch: &mut SweepScratch<T>,
 ) {
     let (first, width, rows) = (s.first as usize, s.width as usize, s.rows as usize);
     // a = b_block − L_belowᵀ b[pattern].
@@ -498,7 +742,12 @@ mod tests {
     }
 
     fn solve<T: Real>(factor: &CholeskyFactor<T>, b: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        let mut rhs = [vec![T::ZERO; b.len()], vec![T::ZERO; b.len()], vec![T::ZERO; b.len()]];
+        solve_on(factor, b, &WorkerPool::new(1, false))
+    }
+
+    fn solve_on<T: Real>(factor: &CholeskyFactor<T>, b: &[[f64; 3]], pool: &WorkerPool) -> Vec<[f64; 3]> {
+        let len = factor.rhs_len();
+        let mut rhs = [vec![T::ZERO; len], vec![T::ZERO; len], vec![T::ZERO; len]];
         for (row, v) in b.iter().enumerate() {
             for c in 0..3 {
                 rhs[c][factor.position(row)] = T::from_f64(v[c]);
@@ -506,7 +755,7 @@ mod tests {
         }
         let mut scratch = factor.scratch();
         let [x, y, z] = &mut rhs;
-        factor.solve_in_place([x, y, z], &mut scratch);
+        factor.solve_in_place([x, y, z], &mut scratch, pool);
         (0..b.len()).map(|row| [0, 1, 2].map(|c| rhs[c][factor.position(row)].to_f64())).collect()
     }
 
@@ -526,6 +775,46 @@ mod tests {
             .map(|level| solve(&CholeskyFactor::<f32>::new(n, &lower, level).unwrap(), &b))
             .collect();
         assert!(levels.windows(2).all(|w| w[0] == w[1]));
+    }
+
+    #[test]
+    fn split_factor_solves_on_two_threads_as_on_one_works() {
+        let (nx, ny, nz) = (16, 6, 4);
+        let (n, lower) = grid_matrix(nx, ny, nz);
+        let b: Vec<[f64; 3]> = (0..n).map(|i| [(i % 5) as f64 - 2.0, (i % 11) as f64, -1.0]).collect();
+        // Keys: each row's grid coordinates; the cut across x (6 × 4 rows) is the smallest.
+        let keys: Vec<Vec<f64>> = vec![
+            (0..n).map(|r| (r / (ny * nz)) as f64).collect(),
+            (0..n).map(|r| (r / nz % ny) as f64).collect(),
+            (0..n).map(|r| (r % nz) as f64).collect(),
+        ];
+        let split = CholeskyFactor::<f64>::new_bisected(n, &lower, &keys, SimdLevel::detect()).unwrap();
+        assert!(split.is_split());
+        assert_eq!(split.rhs_len() - n, ny * nz, "one grid plane separates");
+        let two = WorkerPool::new(2, false);
+        let x2 = solve_on(&split, &b, &two);
+        assert!(residual(n, &lower, &x2, &b) < 1e-12);
+        // The same arithmetic whichever thread runs a half: same bits on one thread, and on
+        // a second solve (the separator's copy is cleared each time).
+        assert_eq!(solve(&split, &b), x2);
+        assert_eq!(solve_on(&split, &b, &two), x2);
+        let f32_split = CholeskyFactor::<f32>::new_bisected(n, &lower, &keys, SimdLevel::detect()).unwrap();
+        let r32 = residual(n, &lower, &solve_on(&f32_split, &b, &two), &b);
+        assert!(r32 < n as f64 * f32::EPSILON as f64, "f32 residual {r32:e}");
+        // A dense matrix does not split (its separator would be half the rows): one thread.
+        let m = 8;
+        let dense: Vec<(u32, u32, f64)> =
+            (0..m as u32).flat_map(|r| (0..=r).map(move |c| (r, c, if r == c { 10.0 } else { -1.0 }))).collect();
+        let order = vec![(0..m).map(|i| i as f64).collect()];
+        assert!(!CholeskyFactor::<f64>::new_bisected(m, &dense, &order, SimdLevel::Baseline).unwrap().is_split());
+        // A diagonal one splits with an empty separator (column-by-column factor).
+        let diagonal: Vec<(u32, u32, f64)> = (0..m as u32).map(|i| (i, i, 2.0)).collect();
+        let f = CholeskyFactor::<f64>::new_bisected(m, &diagonal, &order, SimdLevel::Baseline).unwrap();
+        assert!(f.is_split() && f.rhs_len() == m);
+        let ones = vec![[2.0, 4.0, -2.0]; m];
+        for (got, want) in solve_on(&f, &ones, &two).iter().flatten().zip([1.0, 2.0, -1.0].iter().cycle()) {
+            assert!((got - want).abs() <= 4.0 * f64::EPSILON * want.abs(), "{got} against {want}");
+        }
     }
 
     #[test]
