@@ -42,6 +42,7 @@ pub struct Bisection {
 
 /// Splits the symmetric `n × n` matrix whose lower-triangle entries are `lower` at the median
 /// of one of `keys` (each one value per row): the key whose split has the smallest separator.
+/// Entries outside the matrix are ignored (the factorisation refuses them).
 /// `None` when no key splits (a half empty, or a separator larger than a quarter of the rows).
 ///
 /// # Errors
@@ -81,7 +82,7 @@ fn split_at_median(lower: &[(u32, u32, f64)], key: &[f64]) -> Vec<u8> {
     }
     for &(r, c, _) in lower {
         let (r, c) = (r as usize, c as usize);
-        if (part[r] == PART_A) != (part[c] == PART_A) {
+        if r < n && c < n && (part[r] == PART_A) != (part[c] == PART_A) {
             // A row of A coupled to one outside it: that one joins the separator.
             let other = if part[r] == PART_A { c } else { r };
             part[other] = SEPARATOR;
@@ -100,7 +101,7 @@ fn minimum_degree(rows: &[usize], lower: &[(u32, u32, f64)], part: &[u8], p: u8)
     let mut triplets: Vec<Triplet<usize, usize, f64>> = (0..k).map(|l| Triplet::new(l, l, 1.0)).collect();
     for &(r, c, _) in lower {
         let (r, c) = (r as usize, c as usize);
-        if r != c && part[r] == p && part[c] == p {
+        if r != c && r < part.len() && c < part.len() && part[r] == p && part[c] == p {
             triplets.push(Triplet::new(local[r], local[c], 1.0));
         }
     }

@@ -204,6 +204,7 @@ impl<T: Real> CholeskyFactor<T> {
         keys: &[Vec<f64>],
         simd: SimdLevel,
     ) -> Result<Self, FactorBuildError> {
+        check_entries(n, lower)?;
         let Some(bisection) = bisect(n, lower, keys).map_err(|e| FactorBuildError::Factorisation(e.to_string()))?
         else {
             return Self::new(n, lower, simd);
@@ -398,6 +399,14 @@ enum Sweep {
     Backward,
 }
 
+/// Refuses an entry outside the lower triangle of an `n × n` matrix, or not finite.
+fn check_entries(n: usize, lower: &[(u32, u32, f64)]) -> Result<(), FactorBuildError> {
+    match lower.iter().find(|&&(r, c, v)| r as usize >= n || c > r || !v.is_finite()) {
+        Some(&(row, col, _)) => Err(FactorBuildError::BadEntry { row, col }),
+        None => Ok(()),
+    }
+}
+
 /// Runs faer's fill-reducing ordering (`order`, when given, instead) and numeric supernodal
 /// factorisation of the lower-triangle entries `lower`, in `f64`.
 fn factor_numeric(
@@ -405,13 +414,8 @@ fn factor_numeric(
     lower: &[(u32, u32, f64)],
     order: Option<&[usize]>,
 ) -> Result<(faer::sparse::linalg::cholesky::SymbolicCholesky<usize>, Vec<f64>), FactorBuildError> {
-    let mut triplets = Vec::with_capacity(lower.len());
-    for &(r, c, v) in lower {
-        if r as usize >= n || c > r || !v.is_finite() {
-            return Err(FactorBuildError::BadEntry { row: r, col: c });
-        }
-        triplets.push(Triplet::new(r as usize, c as usize, v));
-    }
+    check_entries(n, lower)?;
+    let triplets: Vec<_> = lower.iter().map(|&(r, c, v)| Triplet::new(r as usize, c as usize, v)).collect();
     let fail = |e: &dyn std::fmt::Debug| FactorBuildError::Factorisation(format!("{e:?}"));
     let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).map_err(|e| fail(&e))?;
     let params = CholeskySymbolicParams {
@@ -842,6 +846,11 @@ mod tests {
         assert!(matches!(
             CholeskyFactor::<f64>::new(2, &[(0, 0, f64::NAN)], SimdLevel::Baseline),
             Err(FactorBuildError::BadEntry { .. })
+        ));
+        let keys = vec![vec![0.0, 1.0]];
+        assert!(matches!(
+            CholeskyFactor::<f64>::new_bisected(2, &[(2, 0, 1.0)], &keys, SimdLevel::Baseline),
+            Err(FactorBuildError::BadEntry { row: 2, col: 0 })
         ));
     }
 }
