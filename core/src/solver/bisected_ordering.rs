@@ -51,17 +51,16 @@ pub fn bisect(n: usize, lower: &[(u32, u32, f64)], keys: &[Vec<f64>]) -> Result<
     let best = keys
         .iter()
         .filter(|key| n >= 4 && key.len() == n)
-        .map(|key| split_at_median(lower, key))
-        .filter(|part| {
-            let count = |p: u8| part.iter().filter(|&&q| q == p).count();
-            count(PART_A) > 0 && count(PART_B) > 0 && count(SEPARATOR) as f64 <= MAX_SEPARATOR_FRACTION * n as f64
+        .map(|key| {
+            let part = split_at_median(lower, key);
+            let counts = [PART_A, PART_B, SEPARATOR].map(|p| part.iter().filter(|&&q| q == p).count());
+            (part, counts)
         })
-        .min_by_key(|part| part.iter().filter(|&&q| q == SEPARATOR).count());
-    let Some(part) = best else {
+        .filter(|(_, [a, b, s])| *a > 0 && *b > 0 && *s as f64 <= MAX_SEPARATOR_FRACTION * n as f64)
+        .min_by_key(|(_, [_, _, s])| *s);
+    let Some((part, [a, b, separator])) = best else {
         return Ok(None);
     };
-    let count = |p: u8| part.iter().filter(|&&q| q == p).count();
-    let (a, b, separator) = (count(PART_A), count(PART_B), count(SEPARATOR));
     let mut order = Vec::with_capacity(n);
     for p in [PART_A, PART_B, SEPARATOR] {
         let rows: Vec<usize> = (0..n).filter(|&i| part[i] == p).collect();
