@@ -13,7 +13,7 @@ fn core(prefix: &str, seconds: f64, ticks_csv: Option<&Path>) -> Command {
     let mut cmd = Command::new(workspace_bin("lamina"));
     cmd.args(["run", "--quiet", "--prefix", prefix, "--seconds", &seconds.to_string()]);
     if let Some(p) = ticks_csv {
-        cmd.arg("--ticks-csv").arg(p);
+        cmd.arg("--ticks-csv").arg(p).arg("--report").arg(p.with_extension("json"));
     }
     cmd.stdout(Stdio::piped()).stderr(Stdio::inherit());
     cmd
@@ -101,8 +101,15 @@ fn subscriber_killed_and_restarted_20_times_never_holds_up_the_core_works() {
     wait_with_watchdog(&mut haptics, Duration::from_secs(30), "haptics listener");
 
     // The core's per-tick record: every tick present, none held up in a send.
+    // The run lasted its 6 s: ticks plus the periods skipped after an overrun (a loaded
+    // machine, e.g. a compile beside the test, skips some) cover 6,000 periods of 1 ms (the
+    // run is six 1 s chunks; an overrun at the end of one may leave its last periods uncounted).
     let rows = read_ticks(&ticks);
-    assert!(rows.len() > 5000, "expected about 6000 ticks, got {}", rows.len());
+    let core_report = read_json(&ticks.with_extension("json"));
+    let skipped = core_report["skipped_periods"].as_u64().expect("the core reports skipped periods");
+    assert_eq!(core_report["ticks"].as_u64(), Some(rows.len() as u64), "one record per tick: {core_report}");
+    let periods = rows.len() as u64 + skipped;
+    assert!((5950..=6006).contains(&periods), "expected 6000 periods, got {} ticks + {skipped} skipped", rows.len());
     for w in rows.windows(2) {
         assert_eq!(w[1].tick, w[0].tick + 1, "tick records are consecutive");
     }
@@ -135,19 +142,36 @@ fn core_killed_and_restarted_is_picked_up_by_subscribers_works() {
     std::fs::create_dir_all(&dir).unwrap();
     let prefix = unique_prefix("restart");
     let out = dir.join("listener.json");
-    let mut sub = listener(&prefix, "block", 6.0, &out, &[]).spawn().unwrap();
+    // The listener runs until told to stop (SIGTERM), after the second core has exited: how
+    // long each core takes to start depends on the machine's load.
+    let mut sub = listener(&prefix, "block", 120.0, &out, &[]).spawn().unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let mut first = core(&prefix, 30.0, None).stdout(Stdio::null()).spawn().unwrap();
     std::thread::sleep(Duration::from_millis(1500));
     kill9(&mut first);
     std::thread::sleep(Duration::from_millis(300));
-    let mut second = core(&prefix, 2.0, None).stdout(Stdio::null()).spawn().unwrap();
+    let mut second = core(&prefix, 2.0, None).spawn().unwrap();
     let status = wait_with_watchdog(&mut second, Duration::from_secs(30), "restarted core");
     assert!(status.success());
+    let mut second_stdout = String::new();
+    std::io::Read::read_to_string(&mut second.stdout.take().unwrap(), &mut second_stdout).unwrap();
+    let published: u64 = second_stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("published ").and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()))
+        .expect("the restarted core reports how many frames it published");
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(unsafe { libc::kill(sub.id() as libc::pid_t, libc::SIGTERM) }, 0);
     wait_with_watchdog(&mut sub, Duration::from_secs(30), "listener");
     let r = read_json(&out);
     assert!(r["resets"].as_u64().unwrap() >= 1, "the listener saw the core restart (sequence back to 0): {r}");
-    assert!(r["last_sequence"].as_u64().unwrap() >= 1000, "and went on receiving from the new core: {r}");
+    // Tests run the core built with debug assertions: its ticks may overrun and skip periods,
+    // so the count is not 2,000; what matters is that it published and was received.
+    assert!(published > 100, "the restarted core published: {second_stdout}");
+    assert_eq!(
+        r["last_sequence"].as_u64(),
+        Some(published - 1),
+        "and received from the new core up to its last frame ({published} published): {r}"
+    );
     assert_eq!(r["receive_errors"].as_u64(), Some(0), "{r}");
     let _ = std::fs::remove_dir_all(&dir);
 }
