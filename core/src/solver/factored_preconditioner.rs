@@ -133,14 +133,26 @@ impl<T: Real> FactoredPreconditioner<T> {
     /// `z = P⁻¹ r` over free nodes (held nodes get 0), the sweeps on `pool`. Allocates
     /// nothing.
     pub fn apply(&mut self, pool: &WorkerPool, r: &Vec3s<T>, z: &mut Vec3s<T>) {
-        for (i, &p) in self.row.iter().enumerate() {
-            if p != HELD {
-                self.work.set(p as usize, r.get(i));
+        {
+            let [w0, w1, w2] = self.work.slices_mut();
+            let [r0, r1, r2] = r.slices();
+            for (((&p, &v0), &v1), &v2) in self.row.iter().zip(r0).zip(r1).zip(r2) {
+                if p != HELD {
+                    let p = p as usize;
+                    (w0[p], w1[p], w2[p]) = (v0, v1, v2);
+                }
             }
         }
         self.factor.solve_in_place(self.work.slices_mut(), &mut self.scratch, pool);
-        for (i, &p) in self.row.iter().enumerate() {
-            z.set(i, if p != HELD { self.work.get(p as usize) } else { [T::ZERO; 3] });
+        let [w0, w1, w2] = self.work.slices();
+        let [z0, z1, z2] = z.slices_mut();
+        for (((&p, z0), z1), z2) in self.row.iter().zip(z0.iter_mut()).zip(z1.iter_mut()).zip(z2.iter_mut()) {
+            (*z0, *z1, *z2) = if p != HELD {
+                let p = p as usize;
+                (w0[p], w1[p], w2[p])
+            } else {
+                (T::ZERO, T::ZERO, T::ZERO)
+            };
         }
     }
 }

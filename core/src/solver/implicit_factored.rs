@@ -192,13 +192,14 @@ impl<T: Real> ImplicitFactored<T> {
         for (c, r) in self.r.slices_mut().into_iter().enumerate() {
             sum_windows(r, &self.windows, c);
             let (g, vc, ec) = (gravity[c], v[c], e[c]);
+            // Zipped slices (no index bounds checks), so the loops vectorise.
             if external {
-                for i in 0..r.len() {
-                    r[i] = free[i] * (r[i] + ec[i] + mass[i] * (g - alpha * vc[i]));
+                for ((((r, &f), &m), &vi), &ei) in r.iter_mut().zip(free).zip(mass).zip(vc).zip(ec) {
+                    *r = f * (*r + ei + m * (g - alpha * vi));
                 }
             } else {
-                for i in 0..r.len() {
-                    r[i] = free[i] * (r[i] + mass[i] * (g - alpha * vc[i]));
+                for (((r, &f), &m), &vi) in r.iter_mut().zip(free).zip(mass).zip(vc) {
+                    *r = f * (*r + m * (g - alpha * vi));
                 }
             }
         }
@@ -232,7 +233,8 @@ impl<T: Real> ImplicitFactored<T> {
                 break;
             }
             if k == 0 {
-                self.p.copy_from(&self.z);
+                // p = z; z is rewritten whole by the next preconditioner solve.
+                std::mem::swap(&mut self.p, &mut self.z);
             } else {
                 scale_add(&mut self.p, rz_new / rz, &self.z);
             }
@@ -257,10 +259,10 @@ impl<T: Real> ImplicitFactored<T> {
         for (((x, v), d), x0) in xs.into_iter().zip(vs).zip(self.dx.slices()).zip(self.x0.slices()) {
             // Held nodes have Δx = 0 (their residual and operator rows are zeroed) and keep
             // the velocity the bone motion gave them.
-            for i in 0..x.len() {
-                let x1 = x[i] + d[i] + free[i] * poison;
-                x[i] = x1;
-                v[i] = free[i] * ((x1 - x0[i]) * inv_h) + (T::ONE - free[i]) * v[i];
+            for ((((x, v), &d), &x0), &f) in x.iter_mut().zip(v.iter_mut()).zip(d).zip(x0).zip(free) {
+                let x1 = *x + d + f * poison;
+                *x = x1;
+                *v = f * ((x1 - x0) * inv_h) + (T::ONE - f) * *v;
             }
         }
         dynamics.counters.implicit += start.elapsed();

@@ -583,11 +583,15 @@ fn forward<T: Real, B: Block<T>>(
         let x = [&b[0][first..first + width], &b[1][first..first + width], &b[2][first..first + width]];
         product::<T, B>(&f.values, &s.below, x, &mut scratch.output);
     }
+    // The three components in one pass over the pattern.
     let pattern = &f.pattern[s.pattern_start as usize..][..rows];
-    for c in 0..3 {
-        for (&p, &v) in pattern.iter().zip(&scratch.output[c][..rows]) {
-            b[c][p as usize] -= v;
-        }
+    let [o0, o1, o2] = &scratch.output;
+    let [b0, b1, b2] = b;
+    for (((&p, &v0), &v1), &v2) in pattern.iter().zip(&o0[..rows]).zip(&o1[..rows]).zip(&o2[..rows]) {
+        let p = p as usize;
+        b0[p] -= v0;
+        b1[p] -= v1;
+        b2[p] -= v2;
     }
 }
 
@@ -603,10 +607,11 @@ fn backward<T: Real, B: Block<T>>(
     // a = b_block − L_belowᵀ b[pattern].
     if rows > 0 {
         let pattern = &f.pattern[s.pattern_start as usize..][..rows];
-        for c in 0..3 {
-            for (g, &p) in scratch.input[c].iter_mut().zip(pattern) {
-                *g = b[c][p as usize];
-            }
+        let [g0, g1, g2] = &mut scratch.input;
+        let (b0, b1, b2) = (&*b[0], &*b[1], &*b[2]);
+        for (((&p, g0), g1), g2) in pattern.iter().zip(&mut g0[..rows]).zip(&mut g1[..rows]).zip(&mut g2[..rows]) {
+            let p = p as usize;
+            (*g0, *g1, *g2) = (b0[p], b1[p], b2[p]);
         }
         let [g0, g1, g2] = &scratch.input;
         product::<T, B>(&f.values, &s.below_t, [&g0[..rows], &g1[..rows], &g2[..rows]], &mut scratch.output);
