@@ -192,16 +192,7 @@ impl<T: Real> ImplicitFactored<T> {
         for (c, r) in self.r.slices_mut().into_iter().enumerate() {
             sum_windows(r, &self.windows, c);
             let (g, vc, ec) = (gravity[c], v[c], e[c]);
-            // Zipped slices (no index bounds checks), so the loops vectorise.
-            if external {
-                for ((((r, &f), &m), &vi), &ei) in r.iter_mut().zip(free).zip(mass).zip(vc).zip(ec) {
-                    *r = f * (*r + ei + m * (g - alpha * vi));
-                }
-            } else {
-                for (((r, &f), &m), &vi) in r.iter_mut().zip(free).zip(mass).zip(vc) {
-                    *r = f * (*r + m * (g - alpha * vi));
-                }
-            }
+            assemble_residual(r, free, mass, vc, external.then_some(ec), g, alpha);
         }
         if let Some(k) = dynamics.effects.skin_volume {
             // Each worker its share of the tetrahedra.
@@ -257,13 +248,7 @@ impl<T: Real> ImplicitFactored<T> {
         let free = &dynamics.free;
         let (xs, vs) = (state.x.slices_mut(), state.v.slices_mut());
         for (((x, v), d), x0) in xs.into_iter().zip(vs).zip(self.dx.slices()).zip(self.x0.slices()) {
-            // Held nodes have Δx = 0 (their residual and operator rows are zeroed) and keep
-            // the velocity the bone motion gave them.
-            for ((((x, v), &d), &x0), &f) in x.iter_mut().zip(v.iter_mut()).zip(d).zip(x0).zip(free) {
-                let x1 = *x + d + f * poison;
-                *x = x1;
-                *v = f * ((x1 - x0) * inv_h) + (T::ONE - f) * *v;
-            }
+            update_positions(x, v, d, x0, free, poison, inv_h);
         }
         dynamics.counters.implicit += start.elapsed();
         dynamics.counters.cg_iterations += self.iterations as u64;
@@ -595,6 +580,39 @@ fn dot<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>) -> f64 {
         }
     }
     lanes.iter().sum()
+}
+
+/// One component of the residual: `r = free (r + e + m (g − α v))` per node, where `r`
+/// holds the spring forces, `e` the external forces (`None`: there are none), `g` gravity
+/// (m/s²) and `α` the viscous damping (1/s). A function of its own so the slices are known
+/// not to alias and the loop vectorises.
+#[inline(never)]
+fn assemble_residual<T: Real>(r: &mut [T], free: &[T], mass: &[T], v: &[T], e: Option<&[T]>, g: T, alpha: T) {
+    match e {
+        Some(e) => {
+            for ((((r, &f), &m), &vi), &ei) in r.iter_mut().zip(free).zip(mass).zip(v).zip(e) {
+                *r = f * (*r + ei + m * (g - alpha * vi));
+            }
+        }
+        None => {
+            for (((r, &f), &m), &vi) in r.iter_mut().zip(free).zip(mass).zip(v) {
+                *r = f * (*r + m * (g - alpha * vi));
+            }
+        }
+    }
+}
+
+/// One component of the step's end: `x += Δx` and `v = (x − x₀)/h` for free nodes; held
+/// nodes (`free` 0) have `Δx = 0` (their residual and operator rows are zeroed) and keep the
+/// velocity the bone motion gave them. `poison` (0 or NaN) makes a free node's result
+/// non-finite. Vectorises (see [`assemble_residual`]).
+#[inline(never)]
+fn update_positions<T: Real>(x: &mut [T], v: &mut [T], dx: &[T], x0: &[T], free: &[T], poison: T, inv_h: T) {
+    for ((((x, v), &d), &x0), &f) in x.iter_mut().zip(v.iter_mut()).zip(dx).zip(x0).zip(free) {
+        let x1 = *x + d + f * poison;
+        *x = x1;
+        *v = f * ((x1 - x0) * inv_h) + (T::ONE - f) * *v;
+    }
 }
 
 /// `out = Σ_w windows[w]` for component `c`.
