@@ -509,10 +509,20 @@ fn sweep<T: Real, B: Block<T>>(
     b: &mut [&mut [T]; 3],
     scratch: &mut SweepScratch<T>,
 ) {
+    // Plain loops, not closures: a closure is compiled outside the caller's
+    // `#[target_feature]` context and its SIMD intrinsics become calls unless it is inlined.
     let supernodes = &f.supernodes[range];
     match dir {
-        Sweep::Forward => supernodes.iter().for_each(|s| forward::<T, B>(f, s, b, scratch)),
-        Sweep::Backward => supernodes.iter().rev().for_each(|s| backward::<T, B>(f, s, b, scratch)),
+        Sweep::Forward => {
+            for s in supernodes {
+                forward::<T, B>(f, s, b, scratch);
+            }
+        }
+        Sweep::Backward => {
+            for s in supernodes.iter().rev() {
+                backward::<T, B>(f, s, b, scratch);
+            }
+        }
     }
 }
 
