@@ -269,7 +269,16 @@ fn core_gone_quiet_force_falls_to_zero_within_5_ms_works() {
         last_change -= 1;
     }
     let last_feedback_ns = rows[last_change].time_ns;
-    assert!(rows[last_change].force[2] > 0.02, "pressing when the core stopped: {:?}", rows[last_change].force);
+    // Pressing when the core stopped: more than 0.02 N before the renderer's gain. On a loaded
+    // machine a late core tick can open a quiet episode earlier in the press, after which the
+    // force ramps back in over the 20 ms onset, so the commanded force is the gain times that.
+    let at_stop = &rows[last_change];
+    assert!(
+        at_stop.gain > 0.0 && at_stop.force[2] > 0.02 * at_stop.gain,
+        "pressing when the core stopped: {:?} N at gain {}",
+        at_stop.force,
+        at_stop.gain
+    );
     let resumed = rows[idx_stop..].iter().position(|r| r.core_tick != rows[idx_stop].core_tick).map(|i| i + idx_stop);
     let resumed = resumed.expect("the core came back");
     let quiet_rows: Vec<&Row> = rows[last_change..resumed].iter().collect();
