@@ -2,13 +2,14 @@
 //! side. The default scene's cylinder limb is generated at several grids (same limb, finer
 //! cells), plus any scene files given (the thigh); each model runs every integrator on 1 and
 //! 2 threads with the sphere tool pressed 4 mm into the skin (where the scene has a tool),
-//! and every configuration of one model is timed in interleaved rounds, so load from other
-//! processes falls on all of them alike.
+//! plus multirate stepping on two threads about the tool (its ticks paced at 1 kHz, as the
+//! bulk steps in real time), and every configuration of one model is timed in interleaved
+//! rounds, so load from other processes falls on all of them alike.
 
 use super::{machine, plot};
 use lamina_core::model::Model;
 use lamina_core::scene::{ModelSource, Scene, ToolSource};
-use lamina_core::solver::{IntegratorKind, Simulation, SphereTool, Substeps};
+use lamina_core::solver::{IntegratorKind, MultirateSettings, Simulation, SphereTool, Substeps};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -43,6 +44,13 @@ const PRESS_DEPTH_M: f64 = 0.004;
 const ROUND_TICKS: usize = 25;
 /// Untimed ticks that estimate a configuration's cost before its warm-up.
 const PROBE_TICKS: usize = 3;
+/// Name of the multirate configurations (`implicit_factored` with `[solver.multirate]`).
+const MULTIRATE: &str = "multirate";
+/// Multirate region about the tool, m, and ticks per bulk step, on every limb with a tool.
+const MULTIRATE_RADIUS_M: f64 = 0.04;
+const MULTIRATE_RATIO: u32 = 8;
+/// One tick's period, for pacing the multirate configurations (their bulk steps in real time).
+const TICK: Duration = Duration::from_millis(1);
 
 /// One measured configuration.
 struct Row {
@@ -50,6 +58,8 @@ struct Row {
     nodes: usize,
     springs: usize,
     integrator: IntegratorKind,
+    /// The integrator's name, or [`MULTIRATE`].
+    solver: &'static str,
     threads: usize,
     /// Sub-steps (explicit) or solver iterations per tick, as printed.
     steps: String,
@@ -116,42 +126,49 @@ fn configurations(scene: &Scene, model: &Model, opts: &CapacityOptions) -> Vec<T
         )),
         _ => None,
     });
-    let mut list = Vec::new();
+    let mut variants = Vec::new();
     for &integrator in &opts.integrators {
         for &threads in &opts.threads {
-            let mut params = scene.solver.clone();
-            params.integrator = integrator;
-            params.threads = threads;
-            params.substeps = Substeps::Auto;
-            let mut effects = scene.effects.clone();
-            if let Some((t, _)) = tool {
-                effects.tool = Some(t);
-            }
-            let row = Row {
-                model: scene.name.clone(),
-                nodes: model.nodes.len(),
-                springs: model.springs.len(),
-                integrator,
-                threads,
-                steps: String::new(),
-                samples_ns: Vec::new(),
-                error: None,
-            };
-            let mut timed = Timed {
-                row,
-                sim: None,
-                tool,
-                spent: Duration::ZERO,
-                ticks_run: 0,
-                warm: PROBE_TICKS,
-                cg_iterations: 0,
-            };
-            match Simulation::<f32>::new(model, params, effects) {
-                Ok(sim) => timed.sim = Some(sim),
-                Err(e) => timed.row.error = Some(e.to_string()),
-            }
-            list.push(timed);
+            variants.push((integrator, threads, None));
         }
+    }
+    // Multirate on two threads (the region on the caller's, the bulk on its own) about the tool.
+    if let Some((_, origin)) = tool
+        && opts.integrators.contains(&IntegratorKind::ImplicitFactored)
+        && opts.threads.contains(&2)
+    {
+        let settings = MultirateSettings { centre: origin, radius: MULTIRATE_RADIUS_M, ratio: MULTIRATE_RATIO };
+        variants.push((IntegratorKind::ImplicitFactored, 2, Some(settings)));
+    }
+    let mut list = Vec::new();
+    for (integrator, threads, multirate) in variants {
+        let mut params = scene.solver.clone();
+        params.integrator = integrator;
+        params.threads = threads;
+        params.substeps = Substeps::Auto;
+        params.multirate = multirate;
+        let mut effects = scene.effects.clone();
+        if let Some((t, _)) = tool {
+            effects.tool = Some(t);
+        }
+        let row = Row {
+            model: scene.name.clone(),
+            nodes: model.nodes.len(),
+            springs: model.springs.len(),
+            integrator,
+            solver: if multirate.is_some() { MULTIRATE } else { integrator.name() },
+            threads,
+            steps: String::new(),
+            samples_ns: Vec::new(),
+            error: None,
+        };
+        let mut timed =
+            Timed { row, sim: None, tool, spent: Duration::ZERO, ticks_run: 0, warm: PROBE_TICKS, cg_iterations: 0 };
+        match Simulation::<f32>::new(model, params, effects) {
+            Ok(sim) => timed.sim = Some(sim),
+            Err(e) => timed.row.error = Some(e.to_string()),
+        }
+        list.push(timed);
     }
     list
 }
@@ -172,6 +189,12 @@ fn run_ticks(t: &mut Timed, ticks: usize) {
         let start = Instant::now();
         sim.step();
         let ns = start.elapsed().as_nanos() as u64;
+        if sim.multirate_status().is_some() {
+            // The bulk steps while the region's ticks pass in real time: pace them at 1 kHz.
+            while start.elapsed() < TICK {
+                std::thread::sleep(TICK.saturating_sub(start.elapsed()).min(Duration::from_micros(200)));
+            }
+        }
         if t.ticks_run >= warm {
             t.row.samples_ns.push(ns);
             t.cg_iterations += u64::from(sim.last_cg().0);
@@ -216,6 +239,10 @@ fn measure(list: &mut [Timed], opts: &CapacityOptions) {
         let measured = t.row.samples_ns.len().max(1) as f64;
         t.row.steps = match t.row.integrator {
             IntegratorKind::ImplicitEuler => format!("{:.1} CG", t.cg_iterations as f64 / measured),
+            IntegratorKind::ImplicitFactored if t.row.solver == MULTIRATE => {
+                let m = sim.multirate_status().unwrap_or_default();
+                format!("{}+{}/{} nodes", m.region_nodes, m.bulk_nodes, m.ratio)
+            }
             IntegratorKind::ImplicitFactored => format!("1 + {} PCG", sim.params().factored_iterations),
             _ => format!("{} sub", sim.substeps()),
         };
@@ -263,20 +290,13 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
         bar.inc(1);
         let reference = list
             .iter()
-            .find(|t| t.row.integrator == IntegratorKind::SymplecticEuler && t.row.threads == 1)
+            .find(|t| t.row.solver == IntegratorKind::SymplecticEuler.name() && t.row.threads == 1)
             .map(|t| t.row.quantile_us(0.5));
         bar.suspend(|| {
             for t in list {
                 let r = t.row;
                 if let Some(e) = &r.error {
-                    println!(
-                        "{:<22} {:>7} {:>8} {:<18} {:>3} {e}",
-                        r.model,
-                        r.nodes,
-                        r.springs,
-                        r.integrator.name(),
-                        r.threads
-                    );
+                    println!("{:<22} {:>7} {:>8} {:<18} {:>3} {e}", r.model, r.nodes, r.springs, r.solver, r.threads);
                 } else {
                     let p50 = r.quantile_us(0.5);
                     let ratio = reference.map(|x| format!("{:.2}x", x / p50)).unwrap_or_default();
@@ -285,7 +305,7 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
                         r.model,
                         r.nodes,
                         r.springs,
-                        r.integrator.name(),
+                        r.solver,
                         r.threads,
                         r.steps,
                         p50,
@@ -301,25 +321,36 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
     }
     bar.finish_and_clear();
     println!("\nlargest model within half the budget (p99 <= {:.0} us):", BUDGET_US / 2.0);
-    for &integrator in &opts.integrators {
-        for &threads in &opts.threads {
+    for (solver, threads) in solver_groups(&rows) {
+        {
             let best = rows
                 .iter()
-                .filter(|r| r.integrator == integrator && r.threads == threads && r.error.is_none())
+                .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
                 .filter(|r| r.quantile_us(0.99) <= BUDGET_US / 2.0)
                 .max_by_key(|r| r.nodes);
             let text = best.map(|r| format!("{} ({} nodes, p99 {:.0} us)", r.model, r.nodes, r.quantile_us(0.99)));
-            println!("  {:<18} {threads} thread(s): {}", integrator.name(), text.as_deref().unwrap_or("none"));
+            println!("  {solver:<18} {threads} thread(s): {}", text.as_deref().unwrap_or("none"));
         }
     }
     write_csv(&opts.out.join("capacity.csv"), &rows)?;
-    write_plot(&opts.out.join("capacity.png"), &rows, opts)?;
+    write_plot(&opts.out.join("capacity.png"), &rows)?;
     tracing::info!(
         "written: {} and {}",
         opts.out.join("capacity.csv").display(),
         opts.out.join("capacity.png").display()
     );
     Ok(())
+}
+
+/// Every (solver, thread count) measured, in the order first met.
+fn solver_groups(rows: &[Row]) -> Vec<(&'static str, usize)> {
+    let mut out: Vec<(&'static str, usize)> = Vec::new();
+    for r in rows {
+        if !out.contains(&(r.solver, r.threads)) {
+            out.push((r.solver, r.threads));
+        }
+    }
+    out
 }
 
 fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
@@ -331,7 +362,7 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
             r.model,
             r.nodes,
             r.springs,
-            r.integrator.name(),
+            r.solver,
             r.threads,
             r.steps,
             r.quantile_us(0.5),
@@ -346,18 +377,18 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
 
 /// Nodes against p50 µs per tick of the cylinder limbs (the other scenes are in the table),
 /// one line per solver and thread count, with the budget and half-budget lines.
-fn write_plot(path: &Path, rows: &[Row], opts: &CapacityOptions) -> Result<(), String> {
+fn write_plot(path: &Path, rows: &[Row]) -> Result<(), String> {
     let mut series = Vec::new();
-    for &integrator in &opts.integrators {
-        for &threads in &opts.threads {
+    for (solver, threads) in solver_groups(rows) {
+        {
             let mut points: Vec<(f64, f64)> = rows
                 .iter()
-                .filter(|r| r.integrator == integrator && r.threads == threads && r.error.is_none())
+                .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
                 .filter(|r| r.model.starts_with(LIMB))
                 .map(|r| (r.nodes as f64, r.quantile_us(0.5)))
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            series.push(plot::Series { name: format!("{} {threads}T p50", integrator.name()), points });
+            series.push(plot::Series { name: format!("{solver} {threads}T p50"), points });
         }
     }
     let (lo, hi) = rows.iter().fold((f64::MAX, 0.0f64), |(lo, hi), r| (lo.min(r.nodes as f64), hi.max(r.nodes as f64)));

@@ -262,7 +262,8 @@ enum BenchCommand {
         batch_seconds: f64,
     },
     /// Compute per 1 kHz tick against model size: the default limb at several grids and
-    /// other scenes, every solver on 1 and 2 threads side by side; a table, CSV and log-log PNG.
+    /// other scenes, every solver on 1 and 2 threads side by side (and multirate stepping about
+    /// the tool on 2, its ticks paced at 1 kHz); a table, CSV and log-log PNG.
     Capacity {
         /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells).
         #[arg(long, default_value = "24x6,39x10,48x12,96x24,160x40")]

@@ -277,6 +277,18 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
             needed as f64 / f64::from(sim.substeps())
         );
     }
+    if let (Some(m), Some(settings)) = (sim.multirate_status(), sim.params().multirate) {
+        println!(
+            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own (docs/solvers.md)",
+            m.region_nodes,
+            settings.radius * 1e3,
+            settings.centre[0],
+            settings.centre[1],
+            settings.centre[2],
+            m.bulk_nodes,
+            m.ratio
+        );
+    }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
 }
 
@@ -316,6 +328,17 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
         c.implicit.as_secs_f64() * 1e6 / frames,
         c.preconditioner.as_secs_f64() * 1e6 / frames
     );
+    if let Some(m) = sim.multirate_status() {
+        println!(
+            "multirate: {} bulk steps, mean {:.1} us, longest {:.1} us; the loop waited for the bulk {} time(s), longest {:.1} us; {} non-finite bulk state(s) refused",
+            m.bulk_steps,
+            m.bulk_step_total_ns as f64 / 1e3 / m.bulk_steps.saturating_sub(1).max(1) as f64,
+            m.bulk_step_max_ns as f64 / 1e3,
+            m.waits,
+            m.wait_max_ns as f64 / 1e3,
+            m.refused
+        );
+    }
     let g = sim.guard_totals();
     let state = sim.state();
     let rest = sim.rest_positions();

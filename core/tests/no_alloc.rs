@@ -1,5 +1,6 @@
 //! The step loop allocates nothing after warm-up: a counting global allocator watches 1000
-//! frames of every integrator, on one thread and on two, with every effect on, through
+//! frames of every integrator (and multirate stepping, whose bulk thread is counted too), on
+//! one thread and on two, with every effect on, through
 //! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
 //! One busy thread per CPU spins beside the step throughout, so the solver's workers are
 //! preempted, park and wake as they do on a loaded machine.
@@ -10,7 +11,9 @@
 //! counted as the step's. Here the only threads are this one and the solver's workers.
 
 use lamina_core::scene::Scene;
-use lamina_core::solver::{DragHandle, GuardSettings, IntegratorKind, PointLoad, Simulation, SphereTool};
+use lamina_core::solver::{
+    DragHandle, GuardSettings, IntegratorKind, MultirateSettings, PointLoad, Simulation, SphereTool,
+};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -134,6 +137,36 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
             assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
             assert!(sim.tool_feedback().in_contact, "{integrator}: the tool pressed the skin throughout");
         }
+    }
+    // Multirate stepping: the region on this thread, the bulk on its own (counted too: the
+    // allocator sees every thread), exchanging every 4 ticks.
+    for threads in [1, 2] {
+        let mut params = scene.solver.clone();
+        params.integrator = IntegratorKind::ImplicitFactored;
+        params.threads = threads;
+        params.multirate = Some(MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 4 });
+        let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
+        let in_region = (0..model.nodes.len()).find(|&i| sim.node_is_free(i)).expect("a region node");
+        for _ in 0..10 {
+            sim.step();
+        }
+        COUNTING.store(true, Ordering::SeqCst);
+        for k in 0..1000 {
+            if k == 500 {
+                sim.state_mut().v.x[in_region] = f32::NAN;
+            }
+            if k % 250 == 100 {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            sim.step();
+        }
+        COUNTING.store(false, Ordering::SeqCst);
+        let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
+        assert_eq!(n, 0, "multirate with {threads} thread(s) allocated {n} times");
+        assert!(sim.guard_totals().rollbacks >= 1, "multirate: the injected NaN was caught");
+        assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
+        assert!(sim.tool_feedback().in_contact, "multirate: the tool pressed the skin throughout");
+        assert_eq!(sim.multirate_status().map(|m| m.bulk_steps), Some(1010 / 4 + 1));
     }
     drop(busy);
 }

@@ -97,6 +97,11 @@ fn scene_text(section: &Section, extra: &[String]) -> String {
     if section.path.starts_with("model.") {
         text.push_str("[model]\nkind = \"layered_block\"\n");
     }
+    // Multirate stepping needs the real-time integrator and bone, and a centre without a tool.
+    let multirate = section.path == "solver.multirate";
+    if multirate {
+        text.push_str("[solver]\nintegrator = \"implicit_factored\"\n[effects]\nbone = true\n");
+    }
     if !section.path.is_empty() {
         let (open, close) = if section.array { ("[[", "]]") } else { ("[", "]") };
         text.push_str(&format!("{open}{}{close}\n", section.path));
@@ -105,6 +110,9 @@ fn scene_text(section: &Section, extra: &[String]) -> String {
         if is_required(row) && !extra.iter().any(|e| e.starts_with(&format!("{key} = "))) {
             text.push_str(&format!("{key} = {}\n", row["example"]));
         }
+    }
+    if multirate && !extra.iter().any(|e| e.starts_with("centre = ")) {
+        text.push_str("centre = [0.0, 0.062, 0.12]\n");
     }
     for line in extra {
         text.push_str(line);

@@ -198,8 +198,12 @@ impl Scene {
         let precision = precision(raw.precision.as_deref()).map_err(located)?;
         let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
         let model = model_source(raw.model, base).map_err(located)?;
-        let solver = solver_parameters(raw.solver, rate_hz).map_err(located)?;
         let (effects, tool) = effects(raw.effects).map_err(located)?;
+        let tool_centre = tool.map(|t| match t.source {
+            super::ToolSource::Scripted { start, .. } => start,
+            super::ToolSource::Haptics { device_origin, .. } => device_origin,
+        });
+        let solver = solver_parameters(raw.solver, rate_hz, tool_centre).map_err(located)?;
         let realtime = realtime_settings(raw.realtime).map_err(located)?;
         let visual = visual_section(raw.visual, base).map_err(located)?;
         Ok(Self {

@@ -1,8 +1,10 @@
 //! The scene's `[solver]` table: integrator, sub-steps, threads, SIMD level and the
 //! integrators' tolerances.
 
-use super::section::{FieldError, non_negative};
-use crate::solver::{IntegrationParameters, IntegratorKind, SimdLevel, Substeps};
+use super::section::{FieldError, finite3, non_negative};
+use crate::solver::{
+    IntegrationParameters, IntegratorKind, MAX_MULTIRATE_RATIO, MultirateSettings, SimdLevel, Substeps,
+};
 use serde::Deserialize;
 
 #[derive(Deserialize, Default)]
@@ -20,10 +22,25 @@ pub(super) struct RawSolver {
     rayleigh_beta: Option<f64>,
     factored_iterations: Option<u32>,
     factored_preconditioner: Option<bool>,
+    multirate: Option<RawMultirate>,
 }
 
-/// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`.
-pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<IntegrationParameters, FieldError> {
+/// `[solver.multirate]`: the region stepped every tick and how much slower the rest steps.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMultirate {
+    centre: Option<[f64; 3]>,
+    radius: Option<f64>,
+    ratio: Option<u32>,
+}
+
+/// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`. A `[solver.multirate]`
+/// table without `centre` is centred on `tool_centre` (the tool's start or device origin).
+pub(super) fn solver_parameters(
+    raw: RawSolver,
+    rate_hz: u32,
+    tool_centre: Option<[f64; 3]>,
+) -> Result<IntegrationParameters, FieldError> {
     let mut solver = IntegrationParameters { dt: 1.0 / rate_hz as f64, ..IntegrationParameters::default() };
     if let Some(name) = raw.integrator {
         solver.integrator = IntegratorKind::parse(&name).ok_or_else(|| {
@@ -81,7 +98,38 @@ pub(super) fn solver_parameters(raw: RawSolver, rate_hz: u32) -> Result<Integrat
         }
         solver.cg_max_iterations = m;
     }
+    if let Some(m) = raw.multirate {
+        solver.multirate = Some(multirate_settings(m, tool_centre)?);
+    }
     Ok(solver)
+}
+
+fn multirate_settings(raw: RawMultirate, tool_centre: Option<[f64; 3]>) -> Result<MultirateSettings, FieldError> {
+    let centre = match (raw.centre, tool_centre) {
+        (Some(c), _) if finite3(&c) => c,
+        (Some(_), _) => return Err(FieldError::new("solver.multirate.centre", "three finite coordinates, m")),
+        (None, Some(c)) => c,
+        (None, None) => {
+            return Err(FieldError::new(
+                "solver.multirate.centre",
+                "needed: the scene has no tool to centre the region on ([x, y, z] in m)",
+            ));
+        }
+    };
+    let mut out = MultirateSettings { centre, ..MultirateSettings::default() };
+    if let Some(r) = raw.radius {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(FieldError::new("solver.multirate.radius", "a positive number of metres"));
+        }
+        out.radius = r;
+    }
+    if let Some(k) = raw.ratio {
+        if !(2..=MAX_MULTIRATE_RATIO).contains(&k) {
+            return Err(FieldError::new("solver.multirate.ratio", format!("from 2 to {MAX_MULTIRATE_RATIO}")));
+        }
+        out.ratio = k;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -89,7 +137,7 @@ mod tests {
     use super::*;
 
     fn parse(body: &str) -> Result<IntegrationParameters, FieldError> {
-        solver_parameters(toml::from_str(body).expect("well-formed"), 500)
+        solver_parameters(toml::from_str(body).expect("well-formed"), 500, None)
     }
 
     #[test]
@@ -102,6 +150,13 @@ mod tests {
         assert_eq!((p.integrator, p.substeps, p.threads), (IntegratorKind::Rk4, Substeps::Fixed(4), 2));
         assert_eq!(p.cg_tolerance, 1e-6);
         assert_eq!(parse("substeps = \"auto\"\n").unwrap().substeps, Substeps::Auto);
+        assert_eq!(p.multirate, None);
+        let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\n";
+        let m = parse(body).unwrap().multirate.expect("multirate on");
+        assert_eq!((m.centre, m.radius, m.ratio), ([0.0, 0.1, 0.0], 0.02, 4));
+        // Without a centre, the tool's.
+        let t = solver_parameters(toml::from_str("[multirate]\n").unwrap(), 1000, Some([1.0, 2.0, 3.0])).unwrap();
+        assert_eq!(t.multirate, Some(MultirateSettings { centre: [1.0, 2.0, 3.0], radius: 0.05, ratio: 8 }));
     }
 
     #[test]
@@ -118,6 +173,10 @@ mod tests {
             ("rayleigh_beta = inf\n", "solver.rayleigh_beta"),
             ("max_substeps = 0\n", "solver.max_substeps"),
             ("cg_max_iterations = 0\n", "solver.cg_max_iterations"),
+            ("[multirate]\nradius = 0.02\n", "solver.multirate.centre"),
+            ("[multirate]\ncentre = [0.0, nan, 0.0]\n", "solver.multirate.centre"),
+            ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nradius = -0.02\n", "solver.multirate.radius"),
+            ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nratio = 1\n", "solver.multirate.ratio"),
         ];
         for (body, field) in cases {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");

@@ -85,6 +85,9 @@ pub enum SimulationBuildError {
         /// The spring with the largest stiffness over its lighter node's mass.
         stiffest: String,
     },
+    /// Multirate stepping cannot be set up as asked (what is wrong is in the message).
+    #[error("multirate stepping: {0}")]
+    Multirate(String),
     /// The implicit solvers' prefactored matrix could not be factored.
     #[error("prefactored matrix: {0}")]
     Factor(FactorBuildError),

@@ -142,7 +142,8 @@ impl<T: Real> Dynamics<T> {
         let tool_nodes = (0..n as u32)
             .filter(|&i| free[i as usize] != T::ZERO && !skin_shell.on_shell.get(i as usize).copied().unwrap_or(false))
             .collect();
-        let skin_volume = super::skin_volume::SkinVolume::of_model(model);
+        let mut skin_volume = super::skin_volume::SkinVolume::of_model(model);
+        skin_volume.retain_touching(|i| free[i as usize] != T::ZERO);
         Self {
             pass,
             pool: WorkerPool::new(threads, params.pin_workers),

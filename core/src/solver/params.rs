@@ -126,6 +126,10 @@ pub struct IntegrationParameters {
     /// (every spring streams its own parameters, in f32 packed to 6 bytes a spring when they
     /// pack within the bounds of `solver::spring_pack`) is for side-by-side benchmarks.
     pub share_run_parameters: bool,
+    /// Multirate stepping (`implicit_factored` only): the region around the tool every frame,
+    /// the rest of the model once per `ratio` frames on a thread of its own
+    /// (`solver/multirate.rs`). Default `None`: every node every frame.
+    pub multirate: Option<super::multirate::MultirateSettings>,
 }
 
 impl Default for IntegrationParameters {
@@ -146,6 +150,7 @@ impl Default for IntegrationParameters {
             pin_workers: false,
             simd: SimdLevel::detect(),
             share_run_parameters: true,
+            multirate: None,
         }
     }
 }

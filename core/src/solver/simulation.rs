@@ -19,6 +19,7 @@ use super::effects::Effects;
 use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
+use super::multirate::{MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, Partition};
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
 use crate::model::Model;
@@ -76,6 +77,8 @@ pub struct Simulation<T: Real> {
     substeps_needed: u64,
     quarantine: Vec<GuardEvent>,
     totals: GuardTotals,
+    /// The bulk's thread and the coupling, with multirate stepping.
+    multirate: Option<Multirate<T>>,
 }
 
 fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuildError> {
@@ -131,8 +134,90 @@ fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuild
 }
 
 impl<T: Real> Simulation<T> {
-    /// A simulation of `model` at rest.
+    /// A simulation of `model` at rest. With [`IntegrationParameters::multirate`], this starts
+    /// the bulk's thread (stopped when the simulation is dropped).
     pub fn new(model: &Model, params: IntegrationParameters, effects: Effects) -> Result<Self, SimulationBuildError> {
+        match params.multirate {
+            Some(settings) => Self::new_multirate(model, params, effects, settings),
+            None => Self::new_single_rate(model, params, effects),
+        }
+    }
+
+    /// The region's simulation (every node outside held) with the bulk's simulation (the
+    /// region held, `ratio` times the step, no tool) on a thread of its own.
+    fn new_multirate(
+        model: &Model,
+        params: IntegrationParameters,
+        effects: Effects,
+        settings: MultirateSettings,
+    ) -> Result<Self, SimulationBuildError> {
+        let refuse = |why: String| Err(SimulationBuildError::Multirate(why));
+        model.validate()?;
+        if params.integrator != IntegratorKind::ImplicitFactored {
+            return refuse(format!("needs integrator implicit_factored, not {}", params.integrator));
+        }
+        if !effects.bone {
+            return refuse("holds each half's nodes as bone for the other: needs bone = true".into());
+        }
+        if !(settings.centre.iter().all(|c| c.is_finite()) && settings.radius > 0.0 && settings.radius.is_finite()) {
+            return refuse(format!(
+                "centre {:?} m and radius {:e} m must be finite, the radius positive",
+                settings.centre, settings.radius
+            ));
+        }
+        if !(2..=MAX_MULTIRATE_RATIO).contains(&settings.ratio) {
+            return refuse(format!("ratio {} must be from 2 to {MAX_MULTIRATE_RATIO}", settings.ratio));
+        }
+        if effects.bone_motion.is_some() {
+            return refuse("moving bone is not coupled between the region and the bulk: remove bone_motion".into());
+        }
+        let partition = Partition::of(model, &settings);
+        if partition.core.is_empty() && !partition.inner.is_empty() && !partition.outer.is_empty() {
+            return refuse(format!(
+                "the sphere of radius {} m about {:?} m holds {} free nodes, none of them more than a spring from its edge: enlarge the radius",
+                settings.radius,
+                settings.centre,
+                partition.inner.len()
+            ));
+        }
+        if partition.inner.is_empty() || partition.outer.is_empty() {
+            return refuse(format!(
+                "the sphere of radius {} m about {:?} m holds {} of the model's {} free nodes: it must hold some, not all",
+                settings.radius,
+                settings.centre,
+                partition.inner.len(),
+                partition.inner.len() + partition.outer.len()
+            ));
+        }
+        let region_params = IntegrationParameters { threads: 1, multirate: None, ..params.clone() };
+        let bulk_params = IntegrationParameters {
+            dt: params.dt * f64::from(settings.ratio),
+            threads: params.threads.saturating_sub(1).max(1),
+            multirate: None,
+            ..params.clone()
+        };
+        let bulk = Self::new_single_rate(model, bulk_params, effects.clone())?;
+        let region_model = partition.region_model(model);
+        // Pinned workers go from the first CPU up and the loop to the last: the bulk takes the first.
+        let cpu =
+            if params.pin_workers { core_affinity::get_core_ids().and_then(|c| c.first().copied()) } else { None };
+        let mut coupling = Multirate::start(model, bulk, partition, &settings, effects.clone(), cpu)
+            .map_err(|e| SimulationBuildError::Multirate(format!("starting the bulk's thread: {e}")))?;
+        let mut region_effects = effects;
+        coupling.region_effects(&mut region_effects);
+        let mut sim = Self::new_single_rate(&region_model, region_params, region_effects)?;
+        // The bulk and the region start from the model at rest, as the whole state does.
+        coupling.full.time = sim.state.time;
+        sim.multirate = Some(coupling);
+        sim.params = params;
+        Ok(sim)
+    }
+
+    fn new_single_rate(
+        model: &Model,
+        params: IntegrationParameters,
+        effects: Effects,
+    ) -> Result<Self, SimulationBuildError> {
         model.validate()?;
         check_effects(model, &effects)?;
         if !(params.dt.is_finite() && params.dt > 0.0) || params.substeps == Substeps::Fixed(0) {
@@ -183,6 +268,7 @@ impl<T: Real> Simulation<T> {
             quarantine: Vec::with_capacity(8),
             totals: GuardTotals::default(),
             params,
+            multirate: None,
         };
         sim.substeps_needed = sim.substeps_needed(sim.params.integrator);
         sim.substeps = sim.substeps_needed.clamp(1, u64::from(sim.params.max_substeps.max(1))) as u32;
@@ -240,13 +326,21 @@ impl<T: Real> Simulation<T> {
 
     /// Current state.
     pub fn state(&self) -> &State<T> {
-        &self.state
+        match &self.multirate {
+            Some(m) => &m.full,
+            None => &self.state,
+        }
     }
 
-    /// Current state, to set initial conditions or (tests) to corrupt it.
+    /// Current state, to set initial conditions or (tests) to corrupt it. With multirate
+    /// stepping, the region's nodes set here are taken into the next tick; the bulk's are
+    /// overwritten by the bulk's state.
     pub fn state_mut(&mut self) -> &mut State<T> {
         self.verlet.valid_at = None;
-        &mut self.state
+        match &mut self.multirate {
+            Some(m) => &mut m.full,
+            None => &mut self.state,
+        }
     }
 
     /// The equations of motion's right-hand side: accelerations at positions `x`, velocities
@@ -263,15 +357,22 @@ impl<T: Real> Simulation<T> {
     }
 
     /// The effects in the loop. Loads and handle targets may be changed between steps;
-    /// the guard catches non-finite values put here.
+    /// the guard catches non-finite values put here. With multirate stepping, changes reach
+    /// the region only (loads and handles on the bulk's nodes keep their built values).
     pub fn effects_mut(&mut self) -> &mut Effects {
         self.verlet.valid_at = None;
-        &mut self.dynamics.effects
+        match &mut self.multirate {
+            Some(m) => &mut m.effects,
+            None => &mut self.dynamics.effects,
+        }
     }
 
     /// The effects in the loop.
     pub fn effects(&self) -> &Effects {
-        &self.dynamics.effects
+        match &self.multirate {
+            Some(m) => &m.effects,
+            None => &self.dynamics.effects,
+        }
     }
 
     /// Sub-steps per frame.
@@ -296,7 +397,11 @@ impl<T: Real> Simulation<T> {
 
     /// Whether node `i` moves (false for fixed bone nodes and out-of-range indices).
     pub fn node_is_free(&self, i: usize) -> bool {
-        self.dynamics.free.get(i).is_some_and(|f| *f != T::ZERO)
+        let i = match &self.multirate {
+            Some(m) => m.region_index(i),
+            None => Some(i),
+        };
+        i.and_then(|i| self.dynamics.free.get(i)).is_some_and(|f| *f != T::ZERO)
     }
 
     /// What the tool felt at the last force evaluation (zero when no tool is on).
@@ -324,6 +429,11 @@ impl<T: Real> Simulation<T> {
         self.factored.as_ref()
     }
 
+    /// With multirate stepping, the region's and the bulk's sizes and the bulk thread's counts.
+    pub fn multirate_status(&self) -> Option<MultirateStatus> {
+        self.multirate.as_ref().map(Multirate::status)
+    }
+
     /// CG iterations and relative residual of the last implicit solve.
     pub fn last_cg(&self) -> (u32, f64) {
         (self.implicit.last_iterations, self.implicit.last_residual)
@@ -331,7 +441,10 @@ impl<T: Real> Simulation<T> {
 
     /// Rest positions, m.
     pub fn rest_positions(&self) -> &Vec3s<T> {
-        &self.dynamics.rest
+        match &self.multirate {
+            Some(m) => &m.full_rest,
+            None => &self.dynamics.rest,
+        }
     }
 
     /// Advances one frame of `params.dt` seconds.
@@ -372,6 +485,21 @@ impl<T: Real> Simulation<T> {
     }
 
     fn step_inner(&mut self, stop: Option<&AtomicBool>) -> bool {
+        let Some(m) = &mut self.multirate else { return self.step_frame(stop) };
+        m.region_effects(&mut self.dynamics.effects);
+        m.before_tick(&mut self.state);
+        let completed = self.step_frame(stop);
+        if let Some(m) = &mut self.multirate {
+            m.after_tick(&self.state);
+            for e in &mut self.quarantine {
+                e.node = m.model_index(e.node);
+            }
+        }
+        completed
+    }
+
+    /// One frame of the simulation's own model, under the guard.
+    fn step_frame(&mut self, stop: Option<&AtomicBool>) -> bool {
         self.quarantine.clear();
         let completed = self.advance(self.params.integrator, self.substeps, stop);
         self.dynamics.counters.frames += 1;

@@ -95,6 +95,21 @@ impl SkinVolume {
         out
     }
 
+    /// Keeps only the tetrahedra with a corner for which `free` is true: one whose corners
+    /// are all held moves nothing (multirate stepping holds most of the model in each half).
+    pub fn retain_touching(&mut self, free: impl Fn(u32) -> bool) {
+        let keep: Vec<bool> = self.tets.iter().map(|t| t.iter().any(|&i| free(i))).collect();
+        let mut k = keep.iter();
+        self.tets.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.rest_volume.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.inv_36_abs_rest.retain(|_| *k.next().unwrap_or(&false));
+        self.nodes = self.tets.iter().flatten().copied().collect();
+        self.nodes.sort_unstable();
+        self.nodes.dedup();
+    }
+
     /// Adds the volume forces at positions `x` (m) for stiffness `k` (Pa) into `f` (N). Nodes
     /// of [`SkinVolume::nodes`] must have been zeroed or hold other forces of this evaluation.
     pub fn add_forces<T: Real>(&self, k: f64, x: &Vec3s<T>, f: &mut Vec3s<T>) {
