@@ -47,8 +47,8 @@ const PROBE_TICKS: usize = 3;
 /// Name of the multirate configurations (`implicit_factored` with `[solver.multirate]`).
 const MULTIRATE: &str = "multirate";
 /// Multirate region about the tool, m, and ticks per bulk step, on every limb with a tool.
-const MULTIRATE_RADIUS_M: f64 = 0.04;
-const MULTIRATE_RATIO: u32 = 8;
+const MULTIRATE_RADIUS_M: f64 = 0.03;
+const MULTIRATE_RATIO: u32 = 20;
 /// One tick's period, for pacing the multirate configurations (their bulk steps in real time).
 const TICK: Duration = Duration::from_millis(1);
 

@@ -338,6 +338,11 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
             m.wait_max_ns as f64 / 1e3,
             m.refused
         );
+        if m.bulk_stopped {
+            println!(
+                "warning: the multirate bulk thread stopped; the region ran on alone with the rest of the model held"
+            );
+        }
     }
     let g = sim.guard_totals();
     let state = sim.state();

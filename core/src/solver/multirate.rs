@@ -237,6 +237,9 @@ pub struct MultirateStatus {
     pub wait_max_ns: u64,
     /// Bulk states refused for a non-finite value (the region kept the last good one).
     pub refused: u64,
+    /// The bulk thread has ended (only a panic in its step ends it early): the region goes
+    /// on alone with the ring held where the bulk last left it.
+    pub bulk_stopped: bool,
 }
 
 /// The region's side of the coupling: the partition, the whole model's state, the bulk's
@@ -406,9 +409,15 @@ impl<T: Real> Multirate<T> {
     }
 
     fn exchange(&mut self, region: &mut State<T>) {
-        let mut packet = match self.packet.take() {
-            Some(p) => p,
+        let packet = match self.packet.take() {
+            Some(p) => Some(p),
             None => self.wait_for_bulk(),
+        };
+        let Some(mut packet) = packet else {
+            // The bulk thread has ended (it cannot, short of a panic in its step): the region
+            // goes on with the ring where the bulk last left it.
+            self.status.bulk_stopped = true;
+            return;
         };
         if packet.finite {
             // The bulk's nodes hold this state until the next exchange (zero-order hold: a
@@ -448,7 +457,8 @@ impl<T: Real> Multirate<T> {
         }
     }
 
-    fn wait_for_bulk(&mut self) -> Box<Packet<T>> {
+    /// The packet back from the bulk, waiting for it; `None` when the bulk thread has ended.
+    fn wait_for_bulk(&mut self) -> Option<Box<Packet<T>>> {
         let start = Instant::now();
         let mut spins = 0u32;
         loop {
@@ -458,11 +468,13 @@ impl<T: Real> Multirate<T> {
                     self.status.waits += 1;
                     self.status.wait_max_ns = self.status.wait_max_ns.max(ns);
                 }
-                return p;
+                return Some(p);
             }
             spins += 1;
             if spins < 1000 {
                 std::hint::spin_loop();
+            } else if self.bulk_thread.as_ref().is_none_or(JoinHandle::is_finished) {
+                return self.to_region.pop();
             } else {
                 std::thread::yield_now();
             }
@@ -537,6 +549,55 @@ fn bulk_loop<T: Real>(
         packet.step_ns = start.elapsed().as_nanos() as u64;
         if to_region.push(packet).is_err() || quit.load(Ordering::Acquire) {
             return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    #[test]
+    fn region_model_holds_the_ring_and_keeps_every_spring_of_the_region_works() {
+        let model = Scene::builtin_default().build_model().unwrap();
+        let settings = MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 8 };
+        let p = Partition::of(&model, &settings);
+        let region = p.region_model(&model);
+        region.validate().unwrap();
+        let inner = |i: u32| p.inner.binary_search(&i).is_ok();
+        // The region's free nodes are exactly the model's free nodes inside the sphere.
+        let free: Vec<u32> =
+            (0..region.nodes.len()).filter(|&l| region.nodes.kind[l] == NodeKind::Free).map(|l| p.kept[l]).collect();
+        assert_eq!(free, p.inner);
+        for &i in &p.inner {
+            let x = model.nodes.position[i as usize];
+            assert!((0..3).map(|k| (x[k] - settings.centre[k]).powi(2)).sum::<f64>() <= 0.05f64.powi(2));
+        }
+        // Every spring of the model touching the region is in the region's model, same rest length.
+        let s = &model.springs;
+        let mut touching: Vec<(u32, u32, u64)> = (0..s.len())
+            .filter(|&k| inner(s.a[k]) || inner(s.b[k]))
+            .map(|k| (s.a[k], s.b[k], s.rest_length[k].to_bits()))
+            .collect();
+        let r = &region.springs;
+        let mut kept: Vec<(u32, u32, u64)> = (0..r.len())
+            .map(|k| (p.kept[r.a[k] as usize], p.kept[r.b[k] as usize], r.rest_length[k].to_bits()))
+            .filter(|&(a, b, _)| inner(a) || inner(b))
+            .collect();
+        touching.sort_unstable();
+        kept.sort_unstable();
+        assert!(!touching.is_empty());
+        assert_eq!(kept, touching);
+        // The core: region nodes none of whose springs leaves the region.
+        assert!(!p.core.is_empty() && p.core.len() < p.inner.len());
+        for k in 0..s.len() {
+            let (a, b) = (s.a[k], s.b[k]);
+            for (end, other) in [(a, b), (b, a)] {
+                if p.core.binary_search(&end).is_ok() {
+                    assert!(inner(other), "core node {end} has a spring to {other} outside the region");
+                }
+            }
         }
     }
 }

@@ -143,8 +143,8 @@ impl<T: Real> Simulation<T> {
         }
     }
 
-    /// The region's simulation (every node outside held) with the bulk's simulation (the
-    /// region held, `ratio` times the step, no tool) on a thread of its own.
+    /// The region's simulation (on the region's own model, its ring held) with the bulk's
+    /// simulation (the whole model, `ratio` times the step) on a thread of its own.
     fn new_multirate(
         model: &Model,
         params: IntegrationParameters,
@@ -157,7 +157,7 @@ impl<T: Real> Simulation<T> {
             return refuse(format!("needs integrator implicit_factored, not {}", params.integrator));
         }
         if !effects.bone {
-            return refuse("holds each half's nodes as bone for the other: needs bone = true".into());
+            return refuse("holds the region's ring as bone: needs bone = true".into());
         }
         if !(settings.centre.iter().all(|c| c.is_finite()) && settings.radius > 0.0 && settings.radius.is_finite()) {
             return refuse(format!(
