@@ -16,7 +16,7 @@
 //!    the bulk thread is late, so the result never depends on timing); the ring holds it
 //!    until the next exchange;
 //! 2. the bulk takes the region's state at `T` for the region's core (its nodes more than
-//!    [`OVERLAP_SPRINGS`] spring from the edge; between core and ring the bulk keeps its own
+//!    `OVERLAP_SPRINGS` spring from the edge; between core and ring the bulk keeps its own
 //!    values) and the tool where it is at `T`, and steps to `T + ratio · dt` while the region
 //!    ticks on.
 //!
@@ -43,6 +43,38 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// Where the tick-rate region is and how much slower the bulk steps.
+///
+/// # Examples
+///
+/// The default limb pressed by its tool, the 5 cm about the tool every 1 ms tick and the whole
+/// limb every 8 ms on a second thread:
+///
+/// ```
+/// use lamina_core::scene::{Scene, ToolSource};
+/// use lamina_core::solver::{IntegratorKind, MultirateSettings, Simulation, SphereTool};
+///
+/// let scene = Scene::builtin_default();
+/// let model = scene.build_model()?;
+/// let tool = scene.tool.expect("the default scene has a tool");
+/// let ToolSource::Haptics { device_origin: top, .. } = tool.source else { unreachable!() };
+/// let mut params = scene.solver.clone();
+/// params.integrator = IntegratorKind::ImplicitFactored;
+/// params.multirate = Some(MultirateSettings { centre: top, ..MultirateSettings::default() });
+/// let mut effects = scene.effects.clone();
+/// effects.tool = Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: top, velocity: [0.0; 3] });
+/// let mut sim = Simulation::<f32>::new(&model, params, effects)?;
+/// for k in 1..=200 {
+///     // 4 mm into the skin over 0.2 s.
+///     let depth = 0.004 * f64::from(k) / 200.0;
+///     sim.effects_mut().tool.as_mut().unwrap().start = [top[0], top[1] - depth, top[2]];
+///     sim.step();
+/// }
+/// let status = sim.multirate_status().expect("multirate on");
+/// assert_eq!(status.bulk_steps, 200 / 8);
+/// assert!(status.region_nodes < status.bulk_nodes);
+/// assert!(sim.tool_feedback().force[1] > 0.0); // the tissue pushes the tool up
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MultirateSettings {
     /// Centre of the region stepped every tick, m, in the model's frame: where the tool works.
