@@ -322,15 +322,13 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
     bar.finish_and_clear();
     println!("\nlargest model within half the budget (p99 <= {:.0} us):", BUDGET_US / 2.0);
     for (solver, threads) in solver_groups(&rows) {
-        {
-            let best = rows
-                .iter()
-                .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
-                .filter(|r| r.quantile_us(0.99) <= BUDGET_US / 2.0)
-                .max_by_key(|r| r.nodes);
-            let text = best.map(|r| format!("{} ({} nodes, p99 {:.0} us)", r.model, r.nodes, r.quantile_us(0.99)));
-            println!("  {solver:<18} {threads} thread(s): {}", text.as_deref().unwrap_or("none"));
-        }
+        let best = rows
+            .iter()
+            .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
+            .filter(|r| r.quantile_us(0.99) <= BUDGET_US / 2.0)
+            .max_by_key(|r| r.nodes);
+        let text = best.map(|r| format!("{} ({} nodes, p99 {:.0} us)", r.model, r.nodes, r.quantile_us(0.99)));
+        println!("  {solver:<18} {threads} thread(s): {}", text.as_deref().unwrap_or("none"));
     }
     write_csv(&opts.out.join("capacity.csv"), &rows)?;
     write_plot(&opts.out.join("capacity.png"), &rows)?;
@@ -380,16 +378,14 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
 fn write_plot(path: &Path, rows: &[Row]) -> Result<(), String> {
     let mut series = Vec::new();
     for (solver, threads) in solver_groups(rows) {
-        {
-            let mut points: Vec<(f64, f64)> = rows
-                .iter()
-                .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
-                .filter(|r| r.model.starts_with(LIMB))
-                .map(|r| (r.nodes as f64, r.quantile_us(0.5)))
-                .collect();
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            series.push(plot::Series { name: format!("{solver} {threads}T p50"), points });
-        }
+        let mut points: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.solver == solver && r.threads == threads && r.error.is_none())
+            .filter(|r| r.model.starts_with(LIMB))
+            .map(|r| (r.nodes as f64, r.quantile_us(0.5)))
+            .collect();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        series.push(plot::Series { name: format!("{solver} {threads}T p50"), points });
     }
     let (lo, hi) = rows.iter().fold((f64::MAX, 0.0f64), |(lo, hi), r| (lo.min(r.nodes as f64), hi.max(r.nodes as f64)));
     if hi > 0.0 {

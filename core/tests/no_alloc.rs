@@ -114,28 +114,7 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
             params.integrator = integrator;
             params.threads = threads;
             let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
-            for _ in 0..10 {
-                sim.step();
-            }
-            COUNTING.store(true, Ordering::SeqCst);
-            for k in 0..1000 {
-                if k == 500 {
-                    // Corrupt the state: the guard must roll back, without allocating.
-                    sim.state_mut().v.x[7] = f32::NAN;
-                }
-                if k % 250 == 100 {
-                    // Idle for ten times the pool's spin time: the workers park, and the
-                    // next step wakes them (a worker's first park falls in the window).
-                    std::thread::sleep(std::time::Duration::from_millis(2));
-                }
-                sim.step();
-            }
-            COUNTING.store(false, Ordering::SeqCst);
-            let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
-            assert_eq!(n, 0, "{integrator} with {threads} thread(s) allocated {n} times");
-            assert!(sim.guard_totals().rollbacks >= 1, "{integrator}: the injected NaN was caught");
-            assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
-            assert!(sim.tool_feedback().in_contact, "{integrator}: the tool pressed the skin throughout");
+            step_counted(&mut sim, 7, &format!("{integrator} with {threads} thread(s)"));
         }
     }
     // Multirate stepping: the region on this thread, the bulk on its own (counted too: the
@@ -147,26 +126,36 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
         params.multirate = Some(MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 4 });
         let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
         let in_region = (0..model.nodes.len()).find(|&i| sim.node_is_free(i)).expect("a region node");
-        for _ in 0..10 {
-            sim.step();
-        }
-        COUNTING.store(true, Ordering::SeqCst);
-        for k in 0..1000 {
-            if k == 500 {
-                sim.state_mut().v.x[in_region] = f32::NAN;
-            }
-            if k % 250 == 100 {
-                std::thread::sleep(std::time::Duration::from_millis(2));
-            }
-            sim.step();
-        }
-        COUNTING.store(false, Ordering::SeqCst);
-        let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
-        assert_eq!(n, 0, "multirate with {threads} thread(s) allocated {n} times");
-        assert!(sim.guard_totals().rollbacks >= 1, "multirate: the injected NaN was caught");
-        assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
-        assert!(sim.tool_feedback().in_contact, "multirate: the tool pressed the skin throughout");
+        step_counted(&mut sim, in_region, &format!("multirate with {threads} thread(s)"));
         assert_eq!(sim.multirate_status().map(|m| m.bulk_steps), Some(1010 / 4 + 1));
     }
     drop(busy);
+}
+
+/// Ten warm-up frames, then 1000 counted ones with a NaN put into node `nan_node`'s velocity
+/// half-way and three 2 ms idles; asserts nothing was allocated, the guard caught the NaN, the
+/// state is finite and the tool pressed throughout.
+fn step_counted(sim: &mut Simulation<f32>, nan_node: usize, what: &str) {
+    for _ in 0..10 {
+        sim.step();
+    }
+    COUNTING.store(true, Ordering::SeqCst);
+    for k in 0..1000 {
+        if k == 500 {
+            // Corrupt the state: the guard must roll back, without allocating.
+            sim.state_mut().v.x[nan_node] = f32::NAN;
+        }
+        if k % 250 == 100 {
+            // Idle for ten times the pool's spin time: the workers park, and the
+            // next step wakes them (a worker's first park falls in the window).
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        sim.step();
+    }
+    COUNTING.store(false, Ordering::SeqCst);
+    let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
+    assert_eq!(n, 0, "{what} allocated {n} times");
+    assert!(sim.guard_totals().rollbacks >= 1, "{what}: the injected NaN was caught");
+    assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
+    assert!(sim.tool_feedback().in_contact, "{what}: the tool pressed the skin throughout");
 }

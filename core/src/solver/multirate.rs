@@ -136,28 +136,11 @@ impl Partition {
                 outer.push(i as u32);
             }
         }
-        let mut keep = in_region.clone();
-        for (&a, &b) in model.springs.a.iter().zip(&model.springs.b) {
-            let (a, b) = (a as usize, b as usize);
-            if in_region[a] || in_region[b] {
-                keep[a] = true;
-                keep[b] = true;
-            }
-        }
+        let keep = spread_along_springs(model, in_region.clone(), 1);
         let kept: Vec<u32> = (0..n as u32).filter(|&i| keep[i as usize]).collect();
         // The core: region nodes more than OVERLAP_SPRINGS springs from any node outside it.
-        let mut near_edge: Vec<bool> = (0..n).map(|i| !in_region[i]).collect();
-        for _ in 0..OVERLAP_SPRINGS {
-            let mut next = near_edge.clone();
-            for (&a, &b) in model.springs.a.iter().zip(&model.springs.b) {
-                let (a, b) = (a as usize, b as usize);
-                if near_edge[a] || near_edge[b] {
-                    next[a] = true;
-                    next[b] = true;
-                }
-            }
-            near_edge = next;
-        }
+        let outside = in_region.iter().map(|r| !r).collect();
+        let near_edge = spread_along_springs(model, outside, OVERLAP_SPRINGS);
         let core = inner.iter().copied().filter(|&i| !near_edge[i as usize]).collect();
         let mut local_of = vec![u32::MAX; n];
         for (l, &i) in kept.iter().enumerate() {
@@ -229,17 +212,34 @@ impl Partition {
     }
 }
 
+/// `marked` grown `springs` times along the model's springs: a node joins when a spring links
+/// it to a marked node.
+fn spread_along_springs(model: &Model, mut marked: Vec<bool>, springs: usize) -> Vec<bool> {
+    for _ in 0..springs {
+        let mut next = marked.clone();
+        for (&a, &b) in model.springs.a.iter().zip(&model.springs.b) {
+            let (a, b) = (a as usize, b as usize);
+            if marked[a] || marked[b] {
+                next[a] = true;
+                next[b] = true;
+            }
+        }
+        marked = next;
+    }
+    marked
+}
+
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.
 struct Packet<T> {
     /// Time of the region's state, s.
-    inner_time: f64,
-    /// The region's positions (m) and velocities (m/s), in [`Partition::inner`] order.
-    inner_x: Vec3s<T>,
-    inner_v: Vec3s<T>,
+    region_time: f64,
+    /// The region's core positions (m) and velocities (m/s), in [`Partition::core`] order.
+    core_x: Vec3s<T>,
+    core_v: Vec3s<T>,
     /// The bulk's positions (m) and velocities (m/s), in [`Partition::outer`] order.
     outer_x: Vec3s<T>,
     outer_v: Vec3s<T>,
-    /// The tool as the region had it at `inner_time` (at rest there), for the bulk's step.
+    /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
     /// Compute time of the bulk's step that filled `outer_*`, ns.
     step_ns: u64,
@@ -277,7 +277,6 @@ pub struct MultirateStatus {
 /// The region's side of the coupling: the partition, the whole model's state, the bulk's
 /// last state, the bulk thread.
 pub(crate) struct Multirate<T: Real> {
-    ratio: u32,
     /// Ticks since the last exchange.
     phase: u32,
     /// The region's nodes: model indices and indices in the region's model.
@@ -295,8 +294,8 @@ pub(crate) struct Multirate<T: Real> {
     local_of: Vec<u32>,
     /// Per node of the region's model, its model index.
     kept: Vec<u32>,
-    /// The whole model's state: the region's nodes as of the last tick, the bulk's moved on
-    /// their last velocity to the same time, held nodes as built.
+    /// The whole model's state: the region's nodes as of the last tick, the others as the
+    /// bulk left them at the last exchange, held nodes as built.
     pub(crate) full: State<T>,
     /// The whole model's rest positions, m.
     pub(crate) full_rest: Vec3s<T>,
@@ -319,6 +318,15 @@ fn gather<T: Real>(from: &Vec3s<T>, nodes: &[u32], into: &mut Vec3s<T>) {
     }
 }
 
+/// `into[nodes[k]] = from[k]` for every `k`, per axis.
+fn scatter<T: Real>(from: &Vec3s<T>, nodes: &[u32], into: &mut Vec3s<T>) {
+    for (dst, src) in into.slices_mut().into_iter().zip(from.slices()) {
+        for (&i, &s) in nodes.iter().zip(src) {
+            dst[i as usize] = s;
+        }
+    }
+}
+
 /// `to[to_nodes[k]] = from[from_nodes[k]]` for every `k`, per axis.
 fn copy_nodes<T: Real>(from: &Vec3s<T>, from_nodes: &[u32], to: &mut Vec3s<T>, to_nodes: &[u32]) {
     for (dst, src) in to.slices_mut().into_iter().zip(from.slices()) {
@@ -329,9 +337,9 @@ fn copy_nodes<T: Real>(from: &Vec3s<T>, from_nodes: &[u32], to: &mut Vec3s<T>, t
 }
 
 impl<T: Real> Multirate<T> {
-    /// Starts the bulk thread on `bulk` (a simulation of the model with the region held,
-    /// stepping `ratio · dt`, at rest like `model`). With `cpu`, the bulk thread is pinned to
-    /// it. `effects` are the caller's, in model node indices.
+    /// Starts the bulk thread on `bulk` (a simulation of the whole model stepping
+    /// `ratio · dt`, at rest like `model`). With `cpu`, the bulk thread is pinned to it.
+    /// `effects` are the caller's, in model node indices.
     pub fn start(
         model: &Model,
         mut bulk: super::Simulation<T>,
@@ -344,9 +352,9 @@ impl<T: Real> Multirate<T> {
         let (ni, no) = (inner.len(), outer.len());
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let mut packet = Box::new(Packet {
-            inner_time: 0.0,
-            inner_x: Vec3s::zeros(core.len()),
-            inner_v: Vec3s::zeros(core.len()),
+            region_time: 0.0,
+            core_x: Vec3s::zeros(core.len()),
+            core_v: Vec3s::zeros(core.len()),
             outer_x: Vec3s::zeros(no),
             outer_v: Vec3s::zeros(no),
             tool: None,
@@ -378,7 +386,6 @@ impl<T: Real> Multirate<T> {
         let status =
             MultirateStatus { region_nodes: ni, bulk_nodes: no, ratio: settings.ratio, ..MultirateStatus::default() };
         Ok(Self {
-            ratio: settings.ratio,
             phase: 0,
             full_rest: full.x.clone(),
             full,
@@ -410,7 +417,7 @@ impl<T: Real> Multirate<T> {
         into.guard = e.guard;
         into.tool = e.tool;
         into.skin_volume = e.skin_volume;
-        let local = |node: u32| self.local_of.get(node as usize).copied().filter(|&l| l != u32::MAX);
+        let local = |node: u32| self.region_index(node as usize).map(|l| l as u32);
         into.loads.clear();
         into.loads.reserve(e.loads.capacity());
         into.loads.extend(e.loads.iter().filter_map(|l| Some(PointLoad { node: local(l.node)?, ..*l })));
@@ -429,7 +436,7 @@ impl<T: Real> Multirate<T> {
         if self.phase == 0 {
             self.exchange(region);
         }
-        self.phase = (self.phase + 1) % self.ratio;
+        self.phase = (self.phase + 1) % self.status.ratio;
     }
 
     /// After a tick of the region: the whole state takes the region's nodes. Allocates
@@ -455,29 +462,19 @@ impl<T: Real> Multirate<T> {
             // The bulk's nodes hold this state until the next exchange (zero-order hold: a
             // ring moved on its velocity between exchanges follows the single-rate solver no
             // better and is less damped).
-            for (full, bulk) in [(&mut self.full.x, &packet.outer_x), (&mut self.full.v, &packet.outer_v)] {
-                for (dst, src) in full.slices_mut().into_iter().zip(bulk.slices()) {
-                    for (&i, &b) in self.outer.iter().zip(src) {
-                        dst[i as usize] = b;
-                    }
-                }
-            }
-            for (local, bulk) in [(&mut region.x, &packet.outer_x), (&mut region.v, &packet.outer_v)] {
-                for (dst, src) in local.slices_mut().into_iter().zip(bulk.slices()) {
-                    for (&l, &k) in self.ring_local.iter().zip(&self.ring_outer) {
-                        dst[l as usize] = src[k as usize];
-                    }
-                }
-            }
+            scatter(&packet.outer_x, &self.outer, &mut self.full.x);
+            scatter(&packet.outer_v, &self.outer, &mut self.full.v);
+            copy_nodes(&packet.outer_x, &self.ring_outer, &mut region.x, &self.ring_local);
+            copy_nodes(&packet.outer_v, &self.ring_outer, &mut region.v, &self.ring_local);
         } else {
             self.status.refused += 1;
         }
         self.status.bulk_step_max_ns = self.status.bulk_step_max_ns.max(packet.step_ns);
         self.status.bulk_step_total_ns += packet.step_ns;
-        packet.inner_time = region.time;
+        packet.region_time = region.time;
         packet.tool = self.effects.tool.map(|t| SphereTool { start: t.centre(region.time), velocity: [0.0; 3], ..t });
-        gather(&region.x, &self.core_local, &mut packet.inner_x);
-        gather(&region.v, &self.core_local, &mut packet.inner_v);
+        gather(&region.x, &self.core_local, &mut packet.core_x);
+        gather(&region.v, &self.core_local, &mut packet.core_v);
         if let Err(p) = self.to_bulk.push(packet) {
             // Unreachable: the queue holds at most the one packet, which was here.
             self.packet = Some(p);
@@ -543,7 +540,7 @@ impl<T: Real> Drop for Multirate<T> {
 /// model's state, steps it, returns the bulk's nodes in the packet.
 fn bulk_loop<T: Real>(
     bulk: &mut super::Simulation<T>,
-    inner: &[u32],
+    core: &[u32],
     outer: &[u32],
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
@@ -560,19 +557,9 @@ fn bulk_loop<T: Real>(
         let start = Instant::now();
         bulk.effects_mut().tool = packet.tool;
         let state = bulk.state_mut();
-        for ((x, v), (px, pv)) in state
-            .x
-            .slices_mut()
-            .into_iter()
-            .zip(state.v.slices_mut())
-            .zip(packet.inner_x.slices().into_iter().zip(packet.inner_v.slices()))
-        {
-            for (k, &i) in inner.iter().enumerate() {
-                x[i as usize] = px[k];
-                v[i as usize] = pv[k];
-            }
-        }
-        state.time = packet.inner_time;
+        scatter(&packet.core_x, core, &mut state.x);
+        scatter(&packet.core_v, core, &mut state.v);
+        state.time = packet.region_time;
         bulk.step();
         let state = bulk.state();
         gather(&state.x, outer, &mut packet.outer_x);

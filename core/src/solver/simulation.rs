@@ -172,14 +172,6 @@ impl<T: Real> Simulation<T> {
             return refuse("moving bone is not coupled between the region and the bulk: remove bone_motion".into());
         }
         let partition = Partition::of(model, &settings);
-        if partition.core.is_empty() && !partition.inner.is_empty() && !partition.outer.is_empty() {
-            return refuse(format!(
-                "the sphere of radius {} m about {:?} m holds {} free nodes, none of them more than a spring from its edge: enlarge the radius",
-                settings.radius,
-                settings.centre,
-                partition.inner.len()
-            ));
-        }
         if partition.inner.is_empty() || partition.outer.is_empty() {
             return refuse(format!(
                 "the sphere of radius {} m about {:?} m holds {} of the model's {} free nodes: it must hold some, not all",
@@ -187,6 +179,14 @@ impl<T: Real> Simulation<T> {
                 settings.centre,
                 partition.inner.len(),
                 partition.inner.len() + partition.outer.len()
+            ));
+        }
+        if partition.core.is_empty() {
+            return refuse(format!(
+                "the sphere of radius {} m about {:?} m holds {} free nodes, none of them more than a spring from its edge: enlarge the radius",
+                settings.radius,
+                settings.centre,
+                partition.inner.len()
             ));
         }
         let region_params = IntegrationParameters { threads: 1, multirate: None, ..params.clone() };
