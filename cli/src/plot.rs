@@ -25,6 +25,25 @@ pub fn font_available() -> bool {
     })
 }
 
+/// Line colours, told apart at a glance (Tableau 20's strong and light tones, in an order
+/// that keeps neighbouring series apart); further series reuse them.
+const COLOURS: [RGBColor; 14] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+    RGBColor(0, 0, 0),
+    RGBColor(174, 199, 232),
+    RGBColor(255, 187, 120),
+    RGBColor(152, 223, 138),
+];
+
 /// One line of a chart: its legend and its points (x, y), both > 0.
 pub struct Series {
     /// Legend text.
@@ -74,18 +93,45 @@ pub fn log_log_lines(
     }
     mesh.draw().map_err(|e| err(&e))?;
     for (k, s) in series.iter().enumerate() {
-        let c = Palette99::pick(k).to_rgba();
+        let c = COLOURS[k % COLOURS.len()].to_rgba();
         let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
         let drawn = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2))).map_err(|e| err(&e))?;
         if font {
-            drawn.label(s.name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+            drawn
+                .label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3)));
         }
         if markers {
             chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(|e| err(&e))?;
         }
     }
     if font {
-        chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw().map_err(|e| err(&e))?;
+        chart
+            .configure_series_labels()
+            .position(emptier_upper_corner(all(), (x0, x1), (y0, y1)))
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
+}
+
+/// The upper corner with fewer points in its quarter of the log-log plot, where the legend
+/// covers least.
+fn emptier_upper_corner(
+    points: impl Iterator<Item = (f64, f64)>,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> SeriesLabelPosition {
+    let (x_mid, y_mid) = ((x0 * x1).sqrt(), (y0 * y1).sqrt());
+    let (mut left, mut right) = (0usize, 0usize);
+    for (x, _) in points.filter(|p| p.1 >= y_mid) {
+        if x < x_mid {
+            left += 1;
+        } else {
+            right += 1;
+        }
+    }
+    if left <= right { SeriesLabelPosition::UpperLeft } else { SeriesLabelPosition::UpperRight }
 }

@@ -6,6 +6,7 @@ use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, Scene};
 use lamina_core::solver::Simulation;
+use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
     Clock, DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest,
     RealtimeSetup, RunLimit, StopReason, available_cpus, install_stop_handler,
@@ -131,6 +132,10 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     }
     let mut elapsed_ns = 0u64;
     let mut second = 0u64;
+    // Host preemption, read between the one-second chunks (never inside the loop).
+    let steal_at_start = StealSnapshot::read().map_err(|e| tracing::warn!("no steal time: {e}")).ok();
+    let mut steal_before = steal_at_start.clone();
+    let cpu = loop_cpu(scene);
     let mut out = std::io::stdout().lock();
     while elapsed_ns < total_ns {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
@@ -165,10 +170,12 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         if let Some(p) = publisher.as_mut() {
             p.publish_stats(&s);
         }
+        let steal_now = StealSnapshot::read().ok();
         if !opts.quiet {
+            let stolen = loop_steal_ms(steal_now.as_ref(), steal_before.as_ref(), cpu);
             let _ = writeln!(
                 out,
-                "[{second:>3} s] ticks {:>6} misses {:>4} | compute p50 {:>7.1} us p99 {:>7.1} us max {:>7.1} us | lateness p99 {:>7.1} us | guard rollbacks {}",
+                "[{second:>3} s] ticks {:>6} misses {:>4} | compute p50 {:>7.1} us p99 {:>7.1} us max {:>7.1} us | lateness p99 {:>7.1} us | host steal {stolen} | guard rollbacks {}",
                 s.ticks,
                 s.misses,
                 s.compute.p50_ns as f64 / 1e3,
@@ -178,6 +185,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                 sim.guard_totals().rollbacks
             );
         }
+        steal_before = steal_now;
         if run.stop == StopReason::StopFlag || STOP.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }
@@ -197,12 +205,16 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let _ = lp.clock().now();
     drop(out);
     println!("\n{monitor}");
+    let steal = steal_at_start.zip(StealSnapshot::read().ok()).map(|(start, end)| end.since(&start));
+    if let Some(steal) = &steal {
+        println!("{}", steal_line(steal, cpu));
+    }
     let finite = print_physics(&sim, publisher.as_ref());
     let recorded = recorder.map(super::record::Recorder::finish);
     if let Some(Ok(summary)) = &recorded {
         println!("{summary}");
     }
-    write_outputs(opts, &monitor, &context)?;
+    write_outputs(opts, &monitor, &context.with_steal(steal.as_ref(), cpu))?;
     if let Some(Err(e)) = recorded {
         return Err(e);
     }
@@ -295,6 +307,19 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
 /// The CPU the loop is pinned to: the scene's, else the last one available.
 fn loop_cpu(scene: &Scene) -> Option<usize> {
     scene.realtime.cpu.or_else(|| available_cpus().last().copied())
+}
+
+/// The loop CPU's steal between two snapshots, as `12 ms`, or `n/a`.
+fn loop_steal_ms(now: Option<&StealSnapshot>, before: Option<&StealSnapshot>, cpu: Option<usize>) -> String {
+    let stolen = now.zip(before).zip(cpu).and_then(|((now, before), cpu)| now.since(before).cpu(cpu));
+    stolen.map_or("n/a".into(), |c| format!("{} ms", c.stolen_ms))
+}
+
+/// One line naming the time the hypervisor took from each CPU over the run.
+fn steal_line(steal: &StealSnapshot, loop_cpu: Option<usize>) -> String {
+    let per_cpu: Vec<String> = steal.cpus().iter().map(|c| format!("CPU {} {} ms", c.cpu, c.stolen_ms)).collect();
+    let on = loop_cpu.map_or(String::new(), |c| format!("; the loop ran on CPU {c}"));
+    format!("host steal over the run (time the hypervisor took, /proc/stat): {}{on}", per_cpu.join(", "))
 }
 
 /// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what

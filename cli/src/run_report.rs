@@ -10,6 +10,7 @@ use lamina_core::real::Real;
 use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, SceneLoadError};
 use lamina_core::solver::{Simulation, Substeps};
 use lamina_rt::host::{HostInfo, rfc3339_utc};
+use lamina_rt::steal::StealSnapshot;
 use sha2::{Digest, Sha256};
 
 /// The Lamina version (the workspace's `version`).
@@ -83,6 +84,21 @@ impl RunContext {
             "prefix": prefix,
         });
         Self { started_utc: rfc3339_utc(SystemTime::now()), host: HostInfo::detect(), fields }
+    }
+
+    /// Adds the time the hypervisor took from each CPU over the run (`host_steal`), and the
+    /// CPU the loop was pinned to.
+    pub fn with_steal(mut self, steal: Option<&StealSnapshot>, loop_cpu: Option<usize>) -> Self {
+        let per_cpu: serde_json::Map<String, serde_json::Value> = steal
+            .map_or(&[][..], StealSnapshot::cpus)
+            .iter()
+            .map(|c| (c.cpu.to_string(), c.stolen_ms.into()))
+            .collect();
+        let steal = steal.map(|_| serde_json::json!({ "loop_cpu": loop_cpu, "per_cpu_ms": per_cpu }));
+        if let Some(fields) = self.fields.as_object_mut() {
+            fields.insert("host_steal".into(), steal.unwrap_or(serde_json::Value::Null));
+        }
+        self
     }
 
     /// The report: the monitor's summary (`summary_json`) with the context's fields added.

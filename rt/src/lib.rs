@@ -17,7 +17,8 @@
 //!    a JSON report.
 //! 4. [`RealtimeSetup`] and [`install_stop_handler`]: the process-level setup,
 //!    each refusal reported, never a panic.
-//! 5. [`host`]: the machine and start time a run's report records.
+//! 5. [`host`]: the machine and start time a run's report records; [`steal`]: the time a
+//!    hypervisor took from each CPU over a run.
 //!
 //! **Architecture invariant:** the per-tick path (loop + monitor recording)
 //! allocates nothing, takes no lock and does no I/O; `tests/no_alloc.rs`
@@ -50,6 +51,7 @@ pub mod monitor;
 pub mod ring;
 pub mod setup;
 pub mod signal;
+pub mod steal;
 pub mod summary;
 pub mod tick;
 pub mod worst;

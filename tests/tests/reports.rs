@@ -35,6 +35,19 @@ fn sha256sum(path: &Path) -> String {
     out.split_whitespace().next().unwrap().to_string()
 }
 
+/// Every CPU's steal so far, in clock ticks: the 8th number of each `cpuN` line of `/proc/stat`
+/// (proc(5)), read here without the product's reader.
+fn steal_ticks() -> Vec<(String, u64)> {
+    let text = std::fs::read_to_string("/proc/stat").expect("Linux has /proc/stat");
+    text.lines()
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let cpu = f.first()?.strip_prefix("cpu").filter(|n| !n.is_empty())?;
+            Some((cpu.to_string(), f.get(8)?.parse().ok()?))
+        })
+        .collect()
+}
+
 fn utc_now() -> String {
     stdout_of("date", &["-u", "+%Y-%m-%dT%H:%M:%SZ"], &root()).expect("date runs")
 }
@@ -69,6 +82,7 @@ fn core_and_haptics_reports_carry_their_context_works() {
     let model = scene.build_model().unwrap();
     let (core_json, haptics_json) = (dir.join("core_report.json"), dir.join("haptics_report.json"));
     let before = utc_now();
+    let steal_before = steal_ticks();
     let mut core = Command::new(workspace_bin("lamina"))
         .args(["run", "--quiet", "--prefix", &prefix, "--seconds", "4", "--scene"])
         .arg(&scene_file)
@@ -92,6 +106,7 @@ fn core_and_haptics_reports_carry_their_context_works() {
     assert!(wait_with_watchdog(&mut haptics, Duration::from_secs(60), "lamina-haptics").success());
     assert!(wait_with_watchdog(&mut core, Duration::from_secs(60), "lamina run").success());
     let after = utc_now();
+    let steal_after = steal_ticks();
     let sha = sha256sum(&scene_file);
 
     let c = read_json(&core_json);
@@ -110,6 +125,16 @@ fn core_and_haptics_reports_carry_their_context_works() {
     assert!(c["solver"]["substeps"].as_u64().is_some_and(|n| n >= 1), "{}", c["solver"]);
     assert!(c["solver"]["simd"].as_str().is_some_and(|s| !s.is_empty()));
     assert_eq!(c["prefix"], prefix.as_str());
+    // Host steal: each CPU's figure lies within what /proc/stat moved by around the whole run.
+    let tick_ms = 1000 / stdout_of("getconf", &["CLK_TCK"], &root()).unwrap().parse::<u64>().unwrap();
+    let steal = &c["host_steal"]["per_cpu_ms"];
+    assert_eq!(steal.as_object().map(|o| o.len()), Some(steal_after.len()), "{steal}");
+    for ((cpu, then), (_, now)) in steal_before.iter().zip(&steal_after) {
+        let reported = steal[cpu.as_str()].as_u64().unwrap_or_else(|| panic!("no steal for CPU {cpu}: {steal}"));
+        assert!(reported <= (now - then) * tick_ms, "CPU {cpu}: {reported} ms, /proc/stat moved {} ticks", now - then);
+    }
+    let loop_cpu = c["host_steal"]["loop_cpu"].as_u64().expect("the loop is pinned").to_string();
+    assert!(steal.get(&loop_cpu).is_some(), "{}", c["host_steal"]);
     // Publishing: every tick's send is measured.
     let ticks = c["ticks"].as_u64().unwrap();
     assert!(ticks > 1000, "{ticks}");
