@@ -137,7 +137,12 @@ fn configurations(scene: &Scene, model: &Model, opts: &CapacityOptions) -> Vec<T
         && opts.integrators.contains(&IntegratorKind::ImplicitFactored)
         && opts.threads.contains(&2)
     {
-        let settings = MultirateSettings { centre: origin, radius: MULTIRATE_RADIUS_M, ratio: MULTIRATE_RATIO };
+        let settings = MultirateSettings {
+            centre: origin,
+            radius: MULTIRATE_RADIUS_M,
+            ratio: MULTIRATE_RATIO,
+            ..MultirateSettings::default()
+        };
         variants.push((IntegratorKind::ImplicitFactored, 2, Some(settings)));
     }
     let mut list = Vec::new();

@@ -291,14 +291,15 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     }
     if let (Some(m), Some(settings)) = (sim.multirate_status(), sim.params().multirate) {
         println!(
-            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own (docs/solvers.md)",
+            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own; the region {} (docs/solvers.md)",
             m.region_nodes,
             settings.radius * 1e3,
             settings.centre[0],
             settings.centre[1],
             settings.centre[2],
             m.bulk_nodes,
-            m.ratio
+            m.ratio,
+            if settings.follow_tool { "follows the tool" } else { "stays where it is" }
         );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
@@ -362,6 +363,16 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
             m.waits,
             m.wait_max_ns as f64 / 1e3,
             m.refused
+        );
+        println!(
+            "multirate region: moved with the tool {} time(s) (longest build {:.1} us, on the bulk's thread), {} region(s) about the tool refused; now {} nodes about ({:.3}, {:.3}, {:.3}) m",
+            m.recentres,
+            m.recentre_build_max_ns as f64 / 1e3,
+            m.recentres_refused,
+            m.region_nodes,
+            m.centre[0],
+            m.centre[1],
+            m.centre[2]
         );
         if m.bulk_stopped {
             println!(

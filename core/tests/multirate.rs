@@ -2,31 +2,56 @@
 //! ticks on its own thread) against the single-rate solvers: the same press force, the same
 //! equilibrium, results independent of the bulk thread's timing, and clear refusals.
 
-use lamina_core::scene::{Scene, ToolSource};
+use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, ToolSource};
 use lamina_core::solver::{
     BoneMotion, IntegratorKind, MultirateSettings, Simulation, SimulationBuildError, SphereTool,
 };
 
 /// The built-in default scene with its tool held at the device origin, stepped by `integrator`,
-/// multirate about the origin when `multirate` gives a radius (m) and ratio.
-fn default_scene_with_tool(integrator: IntegratorKind, multirate: Option<(f64, u32)>) -> (Simulation<f32>, [f64; 3]) {
-    let scene = Scene::builtin_default();
+/// multirate about the origin with `multirate`'s radius, ratio and following.
+fn default_scene_with_tool(
+    integrator: IntegratorKind,
+    multirate: Option<MultirateSettings>,
+) -> (Simulation<f32>, [f64; 3]) {
+    limb_with_tool(Scene::builtin_default(), integrator, multirate)
+}
+
+/// The default limb on a grid of `columns` around and `rows` along (same limb, finer cells).
+fn default_limb_on_grid(columns: u32, rows: u32) -> Scene {
+    let text = DEFAULT_SCENE_TOML
+        .replace("columns = 24", &format!("columns = {columns}"))
+        .replace("rows = 6", &format!("rows = {rows}"));
+    Scene::from_toml_str(&text, None).unwrap()
+}
+
+/// `scene` with its tool held at the device origin, stepped by `integrator`, multirate about
+/// the origin with `multirate`'s radius, ratio and following.
+fn limb_with_tool(
+    scene: Scene,
+    integrator: IntegratorKind,
+    multirate: Option<MultirateSettings>,
+) -> (Simulation<f32>, [f64; 3]) {
     let model = scene.build_model().unwrap();
     let tool = scene.tool.expect("the default scene has a tool");
     let ToolSource::Haptics { device_origin: origin, .. } = tool.source else { panic!("a haptic tool") };
     let mut params = scene.solver.clone();
     params.integrator = integrator;
-    params.multirate = multirate.map(|(radius, ratio)| MultirateSettings { centre: origin, radius, ratio });
+    params.multirate = multirate.map(|m| MultirateSettings { centre: origin, ..m });
     let mut effects = scene.effects.clone();
     effects.tool =
         Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: origin, velocity: [0.0; 3] });
     (Simulation::<f32>::new(&model, params, effects).unwrap(), origin)
 }
 
+/// Multirate settings of `radius` (m) and `ratio`, the region following the tool.
+fn multirate(radius: f64, ratio: u32) -> Option<MultirateSettings> {
+    Some(MultirateSettings { radius, ratio, ..MultirateSettings::default() })
+}
+
 /// Presses the tool 8 mm into the skin over 0.5 s and holds it to 2 s; returns the
 /// simulation and the vertical force on the tool, N.
-fn press(integrator: IntegratorKind, multirate: Option<(f64, u32)>) -> (Simulation<f32>, f64) {
-    let (mut sim, origin) = default_scene_with_tool(integrator, multirate);
+fn press(integrator: IntegratorKind, settings: Option<MultirateSettings>) -> (Simulation<f32>, f64) {
+    let (mut sim, origin) = default_scene_with_tool(integrator, settings);
     for frame in 0..2000 {
         let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
         sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
@@ -52,7 +77,7 @@ fn multirate_press_force_matches_the_explicit_solver_works() {
     let (_, explicit) = press(IntegratorKind::SymplecticEuler, None);
     let (single, single_force) = press(IntegratorKind::ImplicitFactored, None);
     for ratio in [4, 8] {
-        let (multi, force) = press(IntegratorKind::ImplicitFactored, Some((0.05, ratio)));
+        let (multi, force) = press(IntegratorKind::ImplicitFactored, multirate(0.05, ratio));
         let status = multi.multirate_status().expect("multirate on");
         assert!(status.region_nodes > 10 && status.bulk_nodes > 10 * status.region_nodes, "{status:?}");
         assert_eq!(status.bulk_steps, 2000 / u64::from(ratio));
@@ -72,15 +97,74 @@ fn multirate_press_force_matches_the_explicit_solver_works() {
     }
 }
 
+/// On the default limb at 48x12 (4,080 nodes), presses the tool 4 mm into the skin over 0.2 s,
+/// slides it 6 cm along the limb over 1 s and holds it there to 2 s; returns the simulation and
+/// the vertical force on the tool at every tick, N.
+fn press_and_slide(settings: Option<MultirateSettings>) -> (Simulation<f32>, Vec<f64>) {
+    let (mut sim, origin) = limb_with_tool(default_limb_on_grid(48, 12), IntegratorKind::ImplicitFactored, settings);
+    let mut forces = Vec::new();
+    for frame in 1..=2000 {
+        let depth = 0.004 * (frame as f64 / 200.0).min(1.0);
+        let along = 0.06 * ((frame as f64 - 200.0) / 1000.0).clamp(0.0, 1.0);
+        sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2] + along];
+        sim.step();
+        forces.push(sim.tool_feedback().force[1]);
+    }
+    assert_eq!(sim.guard_totals().rollbacks, 0);
+    (sim, forces)
+}
+
+#[test]
+fn multirate_region_follows_a_sliding_tool_works() {
+    let (single, single_forces) = press_and_slide(None);
+    let (moving, forces) = press_and_slide(multirate(0.05, 8));
+    let status = moving.multirate_status().expect("multirate on");
+    // 6 cm in steps of a quarter radius (12.5 mm): at least four moves, none refused, and the
+    // region ends about the tool.
+    assert!(status.recentres >= 4 && status.recentres_refused == 0, "{status:?}");
+    let tool = moving.effects().tool.unwrap().start;
+    let off = (0..3).map(|k| (status.centre[k] - tool[k]).powi(2)).sum::<f64>().sqrt();
+    assert!(off <= 0.25 * 0.05, "the region's centre {:?} is {off} m from the tool {tool:?}", status.centre);
+    // The force follows the single-rate solver's through the press, the slide and the hold
+    // (from 0.1 s, once the tool is 2 mm in).
+    let worst = |forces: &[f64]| {
+        forces.iter().zip(&single_forces).skip(100).map(|(f, s)| (f - s).abs() / s).fold(0.0, f64::max)
+    };
+    let largest_jump = |forces: &[f64]| forces.windows(2).skip(100).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    assert!(single_forces.iter().skip(100).all(|&f| f > 0.05), "the tool presses throughout");
+    let d = max_difference(&moving, &single);
+    eprintln!(
+        "slide: {} moves, longest build {} us; force within {:.2} % of single-rate at every tick; largest change in one tick {:.2e} N (single-rate {:.2e} N); positions within {d:.3e} m",
+        status.recentres,
+        status.recentre_build_max_ns / 1000,
+        100.0 * worst(&forces),
+        largest_jump(&forces),
+        largest_jump(&single_forces)
+    );
+    assert!(worst(&forces) <= 0.05, "multirate {forces:?} N, single-rate {single_forces:?} N");
+    // Taking a new region does not jolt the tool: no change in one tick beyond the
+    // single-rate solver's own largest by more than half.
+    assert!(largest_jump(&forces) <= 1.5 * largest_jump(&single_forces));
+    assert!(d < 5e-4, "positions differ by up to {d:e} m from the single-rate solver");
+    // A region that stays where it was built loses the tool: 6 cm away, the tool presses
+    // only the ring the region holds and the bulk's slow step, and the force is half.
+    let fixed = MultirateSettings { follow_tool: false, ..multirate(0.05, 8).unwrap() };
+    let (stuck, stuck_forces) = press_and_slide(Some(fixed));
+    assert_eq!(stuck.multirate_status().unwrap().recentres, 0);
+    eprintln!("fixed region: force within {:.1} % of single-rate", 100.0 * worst(&stuck_forces));
+    assert!(worst(&stuck_forces) > 0.2, "fixed region {stuck_forces:?} N");
+}
+
 #[test]
 fn multirate_results_do_not_depend_on_the_bulk_threads_timing_works() {
     // The region waits for the bulk's state at each exchange, so two runs give the same bits
     // however the two threads were scheduled (here under whatever load the test machine has).
     let run = || {
-        let (mut sim, origin) = default_scene_with_tool(IntegratorKind::ImplicitFactored, Some((0.05, 5)));
+        let (mut sim, origin) = default_scene_with_tool(IntegratorKind::ImplicitFactored, multirate(0.05, 5));
         for frame in 0..300 {
-            let depth = 0.006 * (frame as f64 / 300.0);
-            sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
+            // 6 mm down and 3 cm along the limb: the region moves with the tool.
+            let (depth, along) = (0.006 * (frame as f64 / 300.0), 0.03 * (frame as f64 / 300.0));
+            sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2] + along];
             sim.step();
             if frame % 97 == 0 {
                 std::thread::sleep(std::time::Duration::from_millis(3));
@@ -90,6 +174,7 @@ fn multirate_results_do_not_depend_on_the_bulk_threads_timing_works() {
     };
     let (a, b) = (run(), run());
     assert!(a.tool_feedback().force[1] > 0.01, "the tool presses");
+    assert!(a.multirate_status().unwrap().recentres >= 2, "{:?}", a.multirate_status());
     assert_eq!(max_difference(&a, &b), 0.0);
     assert_eq!(a.tool_feedback().force, b.tool_feedback().force);
 }
@@ -114,7 +199,7 @@ fn multirate_refusals_name_what_is_wrong_fails() {
             Ok(_) => panic!("built"),
         }
     };
-    let ok = MultirateSettings { centre: origin, radius: 0.05, ratio: 8 };
+    let ok = MultirateSettings { centre: origin, ..MultirateSettings::default() };
     assert!(build(IntegratorKind::SymplecticEuler, ok, false).contains("implicit_factored"));
     assert!(build(IntegratorKind::ImplicitFactored, ok, true).contains("bone_motion"));
     let far = MultirateSettings { centre: [5.0, 5.0, 5.0], ..ok };

@@ -1,5 +1,6 @@
 //! The step loop allocates nothing after warm-up: a counting global allocator watches 1000
-//! frames of every integrator (and multirate stepping, whose bulk thread is counted too), on
+//! frames of every integrator (and multirate stepping, whose bulk thread is counted too; with
+//! the tool sliding, only the stepping thread, as the bulk's builds the regions), on
 //! one thread and on two, with every effect on, through
 //! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
 //! One busy thread per CPU spins beside the step throughout, so the solver's workers are
@@ -21,13 +22,28 @@ struct Counting;
 
 static COUNTING: AtomicBool = AtomicBool::new(false);
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+/// Allocations on the thread that steps (the loop's), counted apart.
+static LOOP_ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// Set on the thread that steps. Const-initialised without a destructor: reading it
+    /// allocates nothing.
+    static ON_LOOP_THREAD: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+fn count_one() {
+    if COUNTING.load(Ordering::Relaxed) {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        if ON_LOOP_THREAD.try_with(std::cell::Cell::get).unwrap_or(false) {
+            LOOP_ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
 
 // SAFETY: forwards to the system allocator; only counts.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count_one();
         // SAFETY: same contract as ours.
         unsafe { System.alloc(layout) }
     }
@@ -36,9 +52,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count_one();
         // SAFETY: same contract as ours.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -103,10 +117,13 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
     // The haptic tool pressing 8 mm into the skin (its point shell and deep-node contact).
     effects.tool = Some(SphereTool { radius: 0.012, stiffness: 300.0, start: [0.0, 0.054, 0.12], velocity: [0.0; 3] });
     // Sanity: the counter sees allocations.
+    ON_LOOP_THREAD.with(|on| on.set(true));
     COUNTING.store(true, Ordering::SeqCst);
     let v: Vec<u64> = std::hint::black_box(vec![1, 2, 3]);
     COUNTING.store(false, Ordering::SeqCst);
+    ON_LOOP_THREAD.with(|on| on.set(false));
     assert!(ALLOCATIONS.swap(0, Ordering::SeqCst) >= 1 && v.len() == 3);
+    assert!(LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst) >= 1);
 
     for integrator in IntegratorKind::ALL {
         for threads in [1, 2] {
@@ -118,16 +135,28 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
         }
     }
     // Multirate stepping: the region on this thread, the bulk on its own (counted too: the
-    // allocator sees every thread), exchanging every 4 ticks.
-    for threads in [1, 2] {
+    // allocator sees every thread), exchanging every 4 ticks; then with the tool sliding 3 cm
+    // along the limb, the region following it: regions are built on the bulk's thread, and
+    // this thread still allocates nothing.
+    let centre = [0.0, 0.062, 0.12];
+    let nearest = (0..model.nodes.len())
+        .filter(|&i| model.nodes.kind[i] == lamina_core::model::NodeKind::Free)
+        .min_by(|&a, &b| {
+            let d = |i: usize| (0..3).map(|k| (model.nodes.position[i][k] - centre[k]).powi(2)).sum::<f64>();
+            d(a).total_cmp(&d(b))
+        })
+        .expect("a free node");
+    for (threads, slide) in [(1, None), (2, None), (2, Some(0.03))] {
         let mut params = scene.solver.clone();
         params.integrator = IntegratorKind::ImplicitFactored;
         params.threads = threads;
-        params.multirate = Some(MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 4 });
+        params.multirate = Some(MultirateSettings { centre, radius: 0.05, ratio: 4, follow_tool: true });
         let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
-        let in_region = (0..model.nodes.len()).find(|&i| sim.node_is_free(i)).expect("a region node");
-        step_counted(&mut sim, in_region, &format!("multirate with {threads} thread(s)"));
-        assert_eq!(sim.multirate_status().map(|m| m.bulk_steps), Some(1010 / 4 + 1));
+        let what = format!("multirate with {threads} thread(s), the tool sliding {slide:?} m");
+        step_counted_sliding(&mut sim, nearest, &what, slide);
+        let status = sim.multirate_status().unwrap();
+        assert_eq!(status.bulk_steps, 1010 / 4 + 1);
+        assert_eq!(status.recentres >= 2, slide.is_some(), "{what}: {status:?}");
     }
     drop(busy);
 }
@@ -136,11 +165,23 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
 /// half-way and three 2 ms idles; asserts nothing was allocated, the guard caught the NaN, the
 /// state is finite and the tool pressed throughout.
 fn step_counted(sim: &mut Simulation<f32>, nan_node: usize, what: &str) {
+    step_counted_sliding(sim, nan_node, what, None);
+}
+
+/// [`step_counted`], the tool sliding `slide` m along the limb (+z) over the counted frames
+/// when given; then only this thread's allocations must be none.
+fn step_counted_sliding(sim: &mut Simulation<f32>, nan_node: usize, what: &str, slide: Option<f64>) {
     for _ in 0..10 {
         sim.step();
     }
+    let start = sim.effects().tool.expect("the tool is on").start;
+    ON_LOOP_THREAD.with(|on| on.set(true));
     COUNTING.store(true, Ordering::SeqCst);
     for k in 0..1000 {
+        if let Some(along) = slide {
+            let tool = sim.effects_mut().tool.as_mut().unwrap();
+            tool.start[2] = start[2] + along * f64::from(k) / 1000.0;
+        }
         if k == 500 {
             // Corrupt the state: the guard must roll back, without allocating.
             sim.state_mut().v.x[nan_node] = f32::NAN;
@@ -153,8 +194,15 @@ fn step_counted(sim: &mut Simulation<f32>, nan_node: usize, what: &str) {
         sim.step();
     }
     COUNTING.store(false, Ordering::SeqCst);
-    let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
-    assert_eq!(n, 0, "{what} allocated {n} times");
+    ON_LOOP_THREAD.with(|on| on.set(false));
+    let (n, on_loop) = (ALLOCATIONS.swap(0, Ordering::SeqCst), LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst));
+    assert_eq!(on_loop, 0, "{what} allocated {on_loop} times on the stepping thread");
+    if slide.is_none() {
+        assert_eq!(n, 0, "{what} allocated {n} times");
+    } else {
+        // The counter saw the regions built on the bulk's thread.
+        assert!(n > 0, "{what}: no region was built");
+    }
     assert!(sim.guard_totals().rollbacks >= 1, "{what}: the injected NaN was caught");
     assert!(sim.state().x.all_finite() && sim.state().v.all_finite());
     assert!(sim.tool_feedback().in_contact, "{what}: the tool pressed the skin throughout");

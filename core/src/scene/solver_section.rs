@@ -32,6 +32,7 @@ pub(super) struct RawMultirate {
     centre: Option<[f64; 3]>,
     radius: Option<f64>,
     ratio: Option<u32>,
+    follow_tool: Option<bool>,
 }
 
 /// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`. A `[solver.multirate]`
@@ -129,6 +130,9 @@ fn multirate_settings(raw: RawMultirate, tool_centre: Option<[f64; 3]>) -> Resul
         }
         out.ratio = k;
     }
+    if let Some(f) = raw.follow_tool {
+        out.follow_tool = f;
+    }
     Ok(out)
 }
 
@@ -151,12 +155,15 @@ mod tests {
         assert_eq!(p.cg_tolerance, 1e-6);
         assert_eq!(parse("substeps = \"auto\"\n").unwrap().substeps, Substeps::Auto);
         assert_eq!(p.multirate, None);
-        let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\n";
+        let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\nfollow_tool = false\n";
         let m = parse(body).unwrap().multirate.expect("multirate on");
-        assert_eq!((m.centre, m.radius, m.ratio), ([0.0, 0.1, 0.0], 0.02, 4));
+        assert_eq!((m.centre, m.radius, m.ratio, m.follow_tool), ([0.0, 0.1, 0.0], 0.02, 4, false));
         // Without a centre, the tool's.
         let t = solver_parameters(toml::from_str("[multirate]\n").unwrap(), 1000, Some([1.0, 2.0, 3.0])).unwrap();
-        assert_eq!(t.multirate, Some(MultirateSettings { centre: [1.0, 2.0, 3.0], radius: 0.05, ratio: 8 }));
+        assert_eq!(
+            t.multirate,
+            Some(MultirateSettings { centre: [1.0, 2.0, 3.0], radius: 0.05, ratio: 8, follow_tool: true })
+        );
     }
 
     #[test]

@@ -20,6 +20,11 @@
 //!    values) and the tool where it is at `T`, and steps to `T + ratio · dt` while the region
 //!    ticks on.
 //!
+//! When the tool has moved a quarter of the radius from the region's centre, the bulk's thread
+//! builds a region about it between two of its steps ([`MultirateSettings::follow_tool`]); the
+//! caller's thread takes it two exchanges after asking, swapping the region's simulation for
+//! the new one without allocating.
+//!
 //! The bulk feels the tool at its own rate; the tool's force is the region's, every tick. At
 //! rest both halves are exact, and a held press reaches the single-rate equilibrium (the
 //! default limb pressed 8 mm at ratio 8: the force within 0.5 %, every node within 0.07 mm,
@@ -83,7 +88,16 @@ pub struct MultirateSettings {
     pub radius: f64,
     /// The bulk takes one step per this many ticks, 2 to [`MAX_MULTIRATE_RATIO`]. Default 8.
     pub ratio: u32,
+    /// Whether the region moves with the tool: once the tool's centre is more than a quarter
+    /// of `radius` from the region's centre at an exchange, a region about it is built on the
+    /// bulk's thread after its step (off the loop's thread) and taken two exchanges later.
+    /// Default true.
+    pub follow_tool: bool,
 }
+
+/// The tool may move this fraction of the region's radius from its centre before a region
+/// about it is built.
+const RECENTRE_FRACTION: f64 = 0.25;
 
 /// Springs between the region's edge and its core: the nodes between are stepped by both
 /// halves, and the bulk keeps its own values there. Without this overlap, exchanging states
@@ -97,7 +111,7 @@ pub const MAX_MULTIRATE_RATIO: u32 = 1000;
 
 impl Default for MultirateSettings {
     fn default() -> Self {
-        Self { centre: [0.0; 3], radius: 0.05, ratio: 8 }
+        Self { centre: [0.0; 3], radius: 0.05, ratio: 8, follow_tool: true }
     }
 }
 
@@ -229,11 +243,145 @@ fn spread_along_springs(model: &Model, mut marked: Vec<bool>, springs: usize) ->
     marked
 }
 
+impl Partition {
+    /// Refuses a partition the coupling cannot run: a region with no free node or with all of
+    /// them, or one whose nodes are all within a spring of its edge (no core).
+    pub fn check(&self, settings: &MultirateSettings) -> Result<(), String> {
+        let (inner, outer) = (self.inner.len(), self.outer.len());
+        if inner == 0 || outer == 0 {
+            return Err(format!(
+                "the sphere of radius {} m about {:?} m holds {inner} of the model's {} free nodes: it must hold some, not all",
+                settings.radius,
+                settings.centre,
+                inner + outer
+            ));
+        }
+        if self.core.is_empty() {
+            return Err(format!(
+                "the sphere of radius {} m about {:?} m holds {inner} free nodes, none of them more than a spring from its edge: enlarge the radius",
+                settings.radius, settings.centre
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A partition with the index maps the exchange uses.
+pub(crate) struct Layout {
+    /// Centre of the region's sphere, m.
+    centre: [f64; 3],
+    partition: Partition,
+    /// The region's nodes, indices in the region's model (in [`Partition::inner`] order).
+    inner_local: Vec<u32>,
+    /// The region's core (what the bulk takes), indices in the region's model.
+    core_local: Vec<u32>,
+    /// The ring (held in the region's model, stepped by the bulk): indices in the region's
+    /// model and in [`Partition::outer`].
+    ring_local: Vec<u32>,
+    ring_outer: Vec<u32>,
+}
+
+impl Layout {
+    fn new(partition: Partition, centre: [f64; 3]) -> Self {
+        let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
+        let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
+        let (ring_local, ring_outer) = partition
+            .outer
+            .iter()
+            .enumerate()
+            .filter(|&(_, &i)| partition.local_of[i as usize] != u32::MAX)
+            .map(|(k, &i)| (partition.local_of[i as usize], k as u32))
+            .unzip();
+        Self { centre, partition, inner_local, core_local, ring_local, ring_outer }
+    }
+
+    /// `effects` (model node indices) in the region's node indices, into `into`: loads and
+    /// handles on nodes outside the region are dropped (those nodes are the bulk's).
+    /// Allocates nothing unless `effects`' lists outgrew `into`'s capacity.
+    fn map_effects(&self, effects: &Effects, into: &mut Effects) {
+        into.gravity = effects.gravity;
+        into.viscous_damping = effects.viscous_damping;
+        into.guard = effects.guard;
+        into.tool = effects.tool;
+        into.skin_volume = effects.skin_volume;
+        let local = |node: u32| self.region_index(node as usize).map(|l| l as u32);
+        into.loads.clear();
+        into.loads.reserve(effects.loads.capacity());
+        into.loads.extend(effects.loads.iter().filter_map(|l| Some(PointLoad { node: local(l.node)?, ..*l })));
+        into.handles.clear();
+        into.handles.reserve(effects.handles.capacity());
+        into.handles.extend(effects.handles.iter().filter_map(|h| Some(DragHandle { node: local(h.node)?, ..*h })));
+    }
+
+    fn region_index(&self, i: usize) -> Option<usize> {
+        self.partition.local_of.get(i).filter(|&&l| l != u32::MAX).map(|&l| l as usize)
+    }
+}
+
+/// Builds the region's simulation about a centre: at start on the caller's thread, and about
+/// the tool on the bulk's thread when the region follows it.
+pub(crate) struct RegionBuilder {
+    /// The whole model (its own copy, for the bulk's thread).
+    model: Model,
+    /// The region's solver settings: the caller's on one thread, without multirate.
+    params: super::IntegrationParameters,
+    /// The effects the simulation was built with, model node indices.
+    effects: Effects,
+    settings: MultirateSettings,
+    /// The first region's stiffest-mode estimate, reused by the regions built after it.
+    pub(crate) known_stability: Option<super::critical_step::StabilityEstimate>,
+}
+
+/// A region built about a new centre, on its way to the loop's thread; on its way back, the
+/// region it replaced, to be dropped off the loop's thread.
+pub(crate) struct Relocation<T: Real> {
+    pub(crate) layout: Layout,
+    pub(crate) region: super::Simulation<T>,
+}
+
+impl RegionBuilder {
+    pub fn new(
+        model: &Model,
+        params: super::IntegrationParameters,
+        effects: Effects,
+        settings: MultirateSettings,
+    ) -> Self {
+        Self { model: model.clone(), params, effects, settings, known_stability: None }
+    }
+
+    /// The region about `centre` and its simulation at rest, its loads and handles lists
+    /// holding at least `capacity` (loads, handles) entries.
+    pub fn build<T: Real>(
+        &self,
+        centre: [f64; 3],
+        capacity: (usize, usize),
+    ) -> Result<Relocation<T>, super::SimulationBuildError> {
+        let settings = MultirateSettings { centre, ..self.settings };
+        let partition = Partition::of(&self.model, &settings);
+        partition.check(&settings).map_err(super::SimulationBuildError::Multirate)?;
+        let region_model = partition.region_model(&self.model);
+        let layout = Layout::new(partition, centre);
+        let mut effects = self.effects.clone();
+        effects.loads.reserve(capacity.0);
+        effects.handles.reserve(capacity.1);
+        let mut region_effects = effects.clone();
+        layout.map_effects(&effects, &mut region_effects);
+        let region = super::Simulation::new_single_rate_with(
+            &region_model,
+            self.params.clone(),
+            region_effects,
+            self.known_stability,
+        )?;
+        Ok(Relocation { layout, region })
+    }
+}
+
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.
-struct Packet<T> {
+struct Packet<T: Real> {
     /// Time of the region's state, s.
     region_time: f64,
-    /// The region's core positions (m) and velocities (m/s), in [`Partition::core`] order.
+    /// The region's core positions (m) and velocities (m/s), in [`Partition::core`] order
+    /// (sized for every free node: a region that moves changes the count).
     core_x: Vec3s<T>,
     core_v: Vec3s<T>,
     /// The bulk's positions (m) and velocities (m/s), in [`Partition::outer`] order.
@@ -243,8 +391,23 @@ struct Packet<T> {
     tool: Option<SphereTool>,
     /// Compute time of the bulk's step that filled `outer_*`, ns.
     step_ns: u64,
+    /// Time the bulk took to build `relocation`, ns (0 without one).
+    build_ns: u64,
     /// Whether the bulk's state is finite (the bulk's guard, when on, keeps it so).
     finite: bool,
+    /// Region to bulk: build a region about this centre (after returning this packet; the
+    /// region comes back with the next one).
+    recentre: Option<[f64; 3]>,
+    /// Bulk to region: the region asked for with the packet before could not be built.
+    recentre_refused: bool,
+    /// The loads and handles capacity of the caller's effects, for a region built here.
+    effects_capacity: (usize, usize),
+    /// Region to bulk: the region took the relocation this packet brought, so from this
+    /// packet on the core and outer lists are the relocation's.
+    adopted: bool,
+    /// Bulk to region: the region asked for with the packet before. Region to bulk: the
+    /// region it replaced, dropped on the bulk's thread.
+    relocation: Option<Box<Relocation<T>>>,
 }
 
 /// What the bulk thread has done, for `lamina run`'s report.
@@ -256,6 +419,8 @@ pub struct MultirateStatus {
     pub bulk_nodes: usize,
     /// Ticks per bulk step.
     pub ratio: u32,
+    /// Centre of the region now, m.
+    pub centre: [f64; 3],
     /// Bulk steps taken.
     pub bulk_steps: u64,
     /// Longest bulk step, ns.
@@ -269,6 +434,14 @@ pub struct MultirateStatus {
     pub wait_max_ns: u64,
     /// Bulk states refused for a non-finite value (the region kept the last good one).
     pub refused: u64,
+    /// Times the region moved to follow the tool.
+    pub recentres: u64,
+    /// Regions about the tool that could not be built (the tool off the tissue, say): the
+    /// region stayed where it was.
+    pub recentres_refused: u64,
+    /// Longest time the bulk's thread took to build a region about the tool, ns (between two
+    /// of its steps: a build longer than `ratio` ticks less a step delays the next step).
+    pub recentre_build_max_ns: u64,
     /// The bulk thread has ended (only a panic in its step ends it early): the region goes
     /// on alone with the ring held where the bulk last left it.
     pub bulk_stopped: bool,
@@ -279,21 +452,17 @@ pub struct MultirateStatus {
 pub(crate) struct Multirate<T: Real> {
     /// Ticks since the last exchange.
     phase: u32,
-    /// The region's nodes: model indices and indices in the region's model.
-    inner: Vec<u32>,
-    inner_local: Vec<u32>,
-    /// The region's core (what the bulk takes), indices in the region's model.
-    core_local: Vec<u32>,
-    /// The ring (held in the region's model, stepped by the bulk): indices in the region's
-    /// model and in `outer`.
-    ring_local: Vec<u32>,
-    ring_outer: Vec<u32>,
-    /// The bulk's nodes, model indices.
-    outer: Vec<u32>,
-    /// Per model node, its index in the region's model (`u32::MAX` outside it).
-    local_of: Vec<u32>,
-    /// Per node of the region's model, its model index.
-    kept: Vec<u32>,
+    layout: Layout,
+    /// Per model node, whether it moves.
+    free: Vec<bool>,
+    /// Region radius (m) and whether it follows the tool.
+    radius: f64,
+    follow_tool: bool,
+    /// The centre of a region asked of the bulk and not yet answered.
+    requested: Option<[f64; 3]>,
+    /// Where the last refused region was centred: asked again only once the tool has moved
+    /// on from there.
+    refused_at: Option<[f64; 3]>,
     /// The whole model's state: the region's nodes as of the last tick, the others as the
     /// bulk left them at the last exchange, held nodes as built.
     pub(crate) full: State<T>,
@@ -336,68 +505,75 @@ fn copy_nodes<T: Real>(from: &Vec3s<T>, from_nodes: &[u32], to: &mut Vec3s<T>, t
     }
 }
 
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+}
+
 impl<T: Real> Multirate<T> {
     /// Starts the bulk thread on `bulk` (a simulation of the whole model stepping
-    /// `ratio · dt`, at rest like `model`). With `cpu`, the bulk thread is pinned to it.
-    /// `effects` are the caller's, in model node indices.
+    /// `ratio · dt`, at rest like `model`). With `cpu`, the bulk thread is pinned to it. With
+    /// `builder`, the region follows the tool, rebuilt on the bulk thread. `effects` are the
+    /// caller's, in model node indices.
     pub fn start(
         model: &Model,
         mut bulk: super::Simulation<T>,
-        partition: Partition,
+        layout: Layout,
+        builder: Option<RegionBuilder>,
         settings: &MultirateSettings,
         effects: Effects,
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
-        let Partition { inner, core, outer, local_of, kept } = partition;
-        let (ni, no) = (inner.len(), outer.len());
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
+        let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
+        let free_count = free.iter().filter(|&&f| f).count();
         let mut packet = Box::new(Packet {
             region_time: 0.0,
-            core_x: Vec3s::zeros(core.len()),
-            core_v: Vec3s::zeros(core.len()),
-            outer_x: Vec3s::zeros(no),
-            outer_v: Vec3s::zeros(no),
+            core_x: Vec3s::zeros(free_count),
+            core_v: Vec3s::zeros(free_count),
+            outer_x: Vec3s::zeros(free_count),
+            outer_v: Vec3s::zeros(free_count),
             tool: None,
             step_ns: 0,
+            build_ns: 0,
             finite: true,
+            recentre: None,
+            recentre_refused: false,
+            effects_capacity: (0, 0),
+            adopted: false,
+            relocation: None,
         });
-        gather(&full.x, &outer, &mut packet.outer_x);
-        let inner_local: Vec<u32> = inner.iter().map(|&i| local_of[i as usize]).collect();
-        let core_local: Vec<u32> = core.iter().map(|&i| local_of[i as usize]).collect();
-        let (ring_local, ring_outer): (Vec<u32>, Vec<u32>) = outer
-            .iter()
-            .enumerate()
-            .filter(|&(_, &i)| local_of[i as usize] != u32::MAX)
-            .map(|(k, &i)| (local_of[i as usize], k as u32))
-            .unzip();
+        gather(&full.x, &layout.partition.outer, &mut packet.outer_x);
         let to_bulk = Arc::new(ArrayQueue::new(1));
         let to_region = Arc::new(ArrayQueue::new(1));
         let quit = Arc::new(AtomicBool::new(false));
         let thread = {
             let (to_bulk, to_region, quit) = (Arc::clone(&to_bulk), Arc::clone(&to_region), Arc::clone(&quit));
-            let outer = outer.clone();
+            let lists = (layout.partition.core.clone(), layout.partition.outer.clone());
             std::thread::Builder::new().name("lamina-bulk".into()).spawn(move || {
                 if let Some(cpu) = cpu {
                     core_affinity::set_for_current(cpu);
                 }
-                bulk_loop(&mut bulk, &core, &outer, &to_bulk, &to_region, &quit);
+                bulk_loop(&mut bulk, lists, builder.as_ref(), &to_bulk, &to_region, &quit);
             })?
         };
-        let status =
-            MultirateStatus { region_nodes: ni, bulk_nodes: no, ratio: settings.ratio, ..MultirateStatus::default() };
+        let status = MultirateStatus {
+            region_nodes: layout.partition.inner.len(),
+            bulk_nodes: layout.partition.outer.len(),
+            ratio: settings.ratio,
+            centre: settings.centre,
+            ..MultirateStatus::default()
+        };
         Ok(Self {
             phase: 0,
+            layout,
+            free,
+            radius: settings.radius,
+            follow_tool: settings.follow_tool,
+            requested: None,
+            refused_at: None,
             full_rest: full.x.clone(),
             full,
             effects,
-            inner,
-            inner_local,
-            core_local,
-            ring_local,
-            ring_outer,
-            outer,
-            local_of,
-            kept,
             packet: Some(packet),
             to_bulk,
             to_region,
@@ -411,43 +587,34 @@ impl<T: Real> Multirate<T> {
     /// the region are dropped: those nodes are the bulk's). Allocates nothing unless the
     /// caller's lists outgrew their capacity.
     pub fn region_effects(&self, into: &mut Effects) {
-        let e = &self.effects;
-        into.gravity = e.gravity;
-        into.viscous_damping = e.viscous_damping;
-        into.guard = e.guard;
-        into.tool = e.tool;
-        into.skin_volume = e.skin_volume;
-        let local = |node: u32| self.region_index(node as usize).map(|l| l as u32);
-        into.loads.clear();
-        into.loads.reserve(e.loads.capacity());
-        into.loads.extend(e.loads.iter().filter_map(|l| Some(PointLoad { node: local(l.node)?, ..*l })));
-        into.handles.clear();
-        into.handles.reserve(e.handles.capacity());
-        into.handles.extend(e.handles.iter().filter_map(|h| Some(DragHandle { node: local(h.node)?, ..*h })));
+        self.layout.map_effects(&self.effects, into);
     }
 
     /// Before a tick of the region from `region` (the region's model's state): takes the
-    /// region's nodes from the whole state (where the caller may have set them); every
-    /// `ratio` ticks, takes the bulk's state and hands it the region's; then sets the ring to
-    /// where the bulk's motion puts it at the tick's end. Allocates nothing.
-    pub fn before_tick(&mut self, region: &mut State<T>) {
-        copy_nodes(&self.full.x, &self.inner, &mut region.x, &self.inner_local);
-        copy_nodes(&self.full.v, &self.inner, &mut region.v, &self.inner_local);
-        if self.phase == 0 {
-            self.exchange(region);
-        }
+    /// region's nodes from the whole state (where the caller may have set them). Allocates
+    /// nothing.
+    pub fn take_region_nodes(&self, region: &mut State<T>) {
+        let l = &self.layout;
+        copy_nodes(&self.full.x, &l.partition.inner, &mut region.x, &l.inner_local);
+        copy_nodes(&self.full.v, &l.partition.inner, &mut region.v, &l.inner_local);
+    }
+
+    /// Whether this tick begins with an exchange ([`receive`](Self::receive), then
+    /// [`send`](Self::send)).
+    pub fn exchange_due(&self) -> bool {
+        self.phase == 0
+    }
+
+    /// Counts the tick; every `ratio` ticks an exchange is due.
+    pub fn end_tick(&mut self) {
         self.phase = (self.phase + 1) % self.status.ratio;
     }
 
-    /// After a tick of the region: the whole state takes the region's nodes. Allocates
-    /// nothing.
-    pub fn after_tick(&mut self, region: &State<T>) {
-        copy_nodes(&region.x, &self.inner_local, &mut self.full.x, &self.inner);
-        copy_nodes(&region.v, &self.inner_local, &mut self.full.v, &self.inner);
-        self.full.time = region.time;
-    }
-
-    fn exchange(&mut self, region: &mut State<T>) {
+    /// The first half of an exchange: takes the bulk's state (waiting for it if the bulk is
+    /// late) into the whole state and the region's ring. Returns a region built about the
+    /// tool when one came back, for the caller to take (the ring is then left to
+    /// [`adopt`](Self::adopt)). Allocates nothing.
+    pub fn receive(&mut self, region: &mut State<T>) -> Option<Box<Relocation<T>>> {
         let packet = match self.packet.take() {
             Some(p) => Some(p),
             None => self.wait_for_bulk(),
@@ -456,25 +623,78 @@ impl<T: Real> Multirate<T> {
             // The bulk thread has ended (it cannot, short of a panic in its step): the region
             // goes on with the ring where the bulk last left it.
             self.status.bulk_stopped = true;
-            return;
+            return None;
         };
+        self.status.bulk_step_max_ns = self.status.bulk_step_max_ns.max(packet.step_ns);
+        self.status.bulk_step_total_ns += packet.step_ns;
+        self.status.recentre_build_max_ns = self.status.recentre_build_max_ns.max(packet.build_ns);
+        let l = &self.layout;
+        let mut relocation = None;
         if packet.finite {
             // The bulk's nodes hold this state until the next exchange (zero-order hold: a
             // ring moved on its velocity between exchanges follows the single-rate solver no
             // better and is less damped).
-            scatter(&packet.outer_x, &self.outer, &mut self.full.x);
-            scatter(&packet.outer_v, &self.outer, &mut self.full.v);
-            copy_nodes(&packet.outer_x, &self.ring_outer, &mut region.x, &self.ring_local);
-            copy_nodes(&packet.outer_v, &self.ring_outer, &mut region.v, &self.ring_local);
+            scatter(&packet.outer_x, &l.partition.outer, &mut self.full.x);
+            scatter(&packet.outer_v, &l.partition.outer, &mut self.full.v);
+            relocation = packet.relocation.take();
+            if relocation.is_none() {
+                copy_nodes(&packet.outer_x, &l.ring_outer, &mut region.x, &l.ring_local);
+                copy_nodes(&packet.outer_v, &l.ring_outer, &mut region.v, &l.ring_local);
+            }
         } else {
+            // A region built from a non-finite bulk goes back to be dropped there.
             self.status.refused += 1;
         }
-        self.status.bulk_step_max_ns = self.status.bulk_step_max_ns.max(packet.step_ns);
-        self.status.bulk_step_total_ns += packet.step_ns;
+        if packet.recentre_refused {
+            self.status.recentres_refused += 1;
+            self.refused_at = self.requested;
+        }
+        if packet.recentre_refused || relocation.is_some() || packet.relocation.is_some() {
+            // The bulk answered the request of two exchanges ago.
+            self.requested = None;
+        }
+        self.packet = Some(packet);
+        relocation
+    }
+
+    /// Takes `relocation`'s layout in place of the region's (the old one goes into
+    /// `relocation`) and sets `region`, the new region's state, from the whole state. Called
+    /// between [`receive`](Self::receive) and [`send`](Self::send). Allocates nothing.
+    pub fn adopt(&mut self, relocation: &mut Relocation<T>, region: &mut State<T>) {
+        std::mem::swap(&mut self.layout, &mut relocation.layout);
+        gather(&self.full.x, &self.layout.partition.kept, &mut region.x);
+        gather(&self.full.v, &self.layout.partition.kept, &mut region.v);
+        region.time = self.full.time;
+        self.status.region_nodes = self.layout.partition.inner.len();
+        self.status.bulk_nodes = self.layout.partition.outer.len();
+        self.status.centre = self.layout.centre;
+        self.status.recentres += 1;
+        self.refused_at = None;
+        if let Some(p) = self.packet.as_mut() {
+            p.adopted = true;
+        }
+    }
+
+    /// The second half of an exchange: hands the bulk the region's core and the tool at the
+    /// region's time, asks for a region about the tool if it has moved far enough, and
+    /// returns `retired` (a region the caller replaced) to be dropped on the bulk's thread.
+    /// Allocates nothing.
+    pub fn send(&mut self, region: &State<T>, retired: Option<Box<Relocation<T>>>) {
+        let Some(mut packet) = self.packet.take() else { return };
         packet.region_time = region.time;
         packet.tool = self.effects.tool.map(|t| SphereTool { start: t.centre(region.time), velocity: [0.0; 3], ..t });
-        gather(&region.x, &self.core_local, &mut packet.core_x);
-        gather(&region.v, &self.core_local, &mut packet.core_v);
+        gather(&region.x, &self.layout.core_local, &mut packet.core_x);
+        gather(&region.v, &self.layout.core_local, &mut packet.core_v);
+        packet.relocation = retired.or(packet.relocation.take());
+        packet.recentre = None;
+        if let Some(tool) = packet.tool.filter(|_| self.follow_tool && self.requested.is_none()) {
+            let far = |from: [f64; 3]| distance(tool.start, from) > RECENTRE_FRACTION * self.radius;
+            if far(self.layout.centre) && self.refused_at.is_none_or(far) {
+                packet.recentre = Some(tool.start);
+                packet.effects_capacity = (self.effects.loads.capacity(), self.effects.handles.capacity());
+                self.requested = Some(tool.start);
+            }
+        }
         if let Err(p) = self.to_bulk.push(packet) {
             // Unreachable: the queue holds at most the one packet, which was here.
             self.packet = Some(p);
@@ -484,6 +704,15 @@ impl<T: Real> Multirate<T> {
         if let Some(t) = &self.bulk_thread {
             t.thread().unpark();
         }
+    }
+
+    /// After a tick of the region: the whole state takes the region's nodes. Allocates
+    /// nothing.
+    pub fn after_tick(&mut self, region: &State<T>) {
+        let l = &self.layout;
+        copy_nodes(&region.x, &l.inner_local, &mut self.full.x, &l.partition.inner);
+        copy_nodes(&region.v, &l.inner_local, &mut self.full.v, &l.partition.inner);
+        self.full.time = region.time;
     }
 
     /// The packet back from the bulk, waiting for it; `None` when the bulk thread has ended.
@@ -510,14 +739,14 @@ impl<T: Real> Multirate<T> {
         }
     }
 
-    /// Node `i` of the model in the region's model, when kept there.
-    pub fn region_index(&self, i: usize) -> Option<usize> {
-        self.local_of.get(i).filter(|&&l| l != u32::MAX).map(|&l| l as usize)
-    }
-
     /// Node `local` of the region's model in the model.
     pub fn model_index(&self, local: u32) -> u32 {
-        self.kept.get(local as usize).copied().unwrap_or(local)
+        self.layout.partition.kept.get(local as usize).copied().unwrap_or(local)
+    }
+
+    /// Whether model node `i` moves (in the region or the bulk).
+    pub fn node_is_free(&self, i: usize) -> bool {
+        self.free.get(i).copied().unwrap_or(false)
     }
 
     /// The coupling's counts so far (a bulk step under way counts as taken).
@@ -537,15 +766,20 @@ impl<T: Real> Drop for Multirate<T> {
 }
 
 /// The bulk thread: waits for the packet, takes the region's state and tool into the whole
-/// model's state, steps it, returns the bulk's nodes in the packet.
+/// model's state, steps it, returns the bulk's nodes in the packet; builds a region about
+/// the tool when asked. `lists` are the core and outer node lists of the region's layout.
 fn bulk_loop<T: Real>(
     bulk: &mut super::Simulation<T>,
-    core: &[u32],
-    outer: &[u32],
+    mut lists: (Vec<u32>, Vec<u32>),
+    builder: Option<&RegionBuilder>,
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
     quit: &AtomicBool,
 ) {
+    // The lists of a region built and sent, until the region says it took it.
+    let mut pending: Option<(Vec<u32>, Vec<u32>)> = None;
+    // A region built about the tool (or why not) and its build time, ns, for the next packet.
+    let mut built: Option<(Result<Relocation<T>, super::SimulationBuildError>, u64)> = None;
     loop {
         let Some(mut packet) = to_bulk.pop() else {
             if quit.load(Ordering::Acquire) {
@@ -555,6 +789,15 @@ fn bulk_loop<T: Real>(
             continue;
         };
         let start = Instant::now();
+        // A region the loop replaced (or refused) is dropped here, off the loop's thread.
+        drop(packet.relocation.take());
+        if std::mem::take(&mut packet.adopted)
+            && let Some(next) = pending.take()
+        {
+            lists = next;
+        }
+        pending = None;
+        let (core, outer) = (&lists.0, &lists.1);
         bulk.effects_mut().tool = packet.tool;
         let state = bulk.state_mut();
         scatter(&packet.core_x, core, &mut state.x);
@@ -566,8 +809,28 @@ fn bulk_loop<T: Real>(
         gather(&state.v, outer, &mut packet.outer_v);
         packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite();
         packet.step_ns = start.elapsed().as_nanos() as u64;
+        (packet.recentre_refused, packet.build_ns) = (false, 0);
+        if let Some((result, build_ns)) = built.take() {
+            packet.build_ns = build_ns;
+            match result {
+                Ok(relocation) => {
+                    let p = &relocation.layout.partition;
+                    pending = Some((p.core.clone(), p.outer.clone()));
+                    packet.relocation = Some(Box::new(relocation));
+                }
+                Err(_) => packet.recentre_refused = true,
+            }
+        }
+        let request = packet.recentre.take().zip(builder);
+        let capacity = packet.effects_capacity;
         if to_region.push(packet).is_err() || quit.load(Ordering::Acquire) {
             return;
+        }
+        // Built while the region ticks on, between this bulk step and the next.
+        if let Some((centre, builder)) = request {
+            let start = Instant::now();
+            let result = builder.build::<T>(centre, capacity);
+            built = Some((result, start.elapsed().as_nanos() as u64));
         }
     }
 }
@@ -580,7 +843,7 @@ mod tests {
     #[test]
     fn region_model_holds_the_ring_and_keeps_every_spring_of_the_region_works() {
         let model = Scene::builtin_default().build_model().unwrap();
-        let settings = MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 8 };
+        let settings = MultirateSettings { centre: [0.0, 0.062, 0.12], ..MultirateSettings::default() };
         let p = Partition::of(&model, &settings);
         let region = p.region_model(&model);
         region.validate().unwrap();

@@ -19,7 +19,7 @@ use super::effects::Effects;
 use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
-use super::multirate::{MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, Partition};
+use super::multirate::{MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder};
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
 use crate::model::Model;
@@ -171,24 +171,6 @@ impl<T: Real> Simulation<T> {
         if effects.bone_motion.is_some() {
             return refuse("moving bone is not coupled between the region and the bulk: remove bone_motion".into());
         }
-        let partition = Partition::of(model, &settings);
-        if partition.inner.is_empty() || partition.outer.is_empty() {
-            return refuse(format!(
-                "the sphere of radius {} m about {:?} m holds {} of the model's {} free nodes: it must hold some, not all",
-                settings.radius,
-                settings.centre,
-                partition.inner.len(),
-                partition.inner.len() + partition.outer.len()
-            ));
-        }
-        if partition.core.is_empty() {
-            return refuse(format!(
-                "the sphere of radius {} m about {:?} m holds {} free nodes, none of them more than a spring from its edge: enlarge the radius",
-                settings.radius,
-                settings.centre,
-                partition.inner.len()
-            ));
-        }
         let region_params = IntegrationParameters { threads: 1, multirate: None, ..params.clone() };
         let bulk_params = IntegrationParameters {
             dt: params.dt * f64::from(settings.ratio),
@@ -196,16 +178,17 @@ impl<T: Real> Simulation<T> {
             multirate: None,
             ..params.clone()
         };
+        let mut builder = RegionBuilder::new(model, region_params, effects.clone(), settings);
+        let capacity = (effects.loads.capacity(), effects.handles.capacity());
+        let super::multirate::Relocation { layout, region: mut sim } = builder.build::<T>(settings.centre, capacity)?;
+        builder.known_stability = Some(sim.stability);
         let bulk = Self::new_single_rate(model, bulk_params, effects.clone())?;
-        let region_model = partition.region_model(model);
         // Pinned workers go from the first CPU up and the loop to the last: the bulk takes the first.
         let cpu =
             if params.pin_workers { core_affinity::get_core_ids().and_then(|c| c.first().copied()) } else { None };
-        let mut coupling = Multirate::start(model, bulk, partition, &settings, effects.clone(), cpu)
+        let builder = settings.follow_tool.then_some(builder);
+        let mut coupling = Multirate::start(model, bulk, layout, builder, &settings, effects, cpu)
             .map_err(|e| SimulationBuildError::Multirate(format!("starting the bulk's thread: {e}")))?;
-        let mut region_effects = effects;
-        coupling.region_effects(&mut region_effects);
-        let mut sim = Self::new_single_rate(&region_model, region_params, region_effects)?;
         // The bulk and the region start from the model at rest, as the whole state does.
         coupling.full.time = sim.state.time;
         sim.multirate = Some(coupling);
@@ -213,10 +196,22 @@ impl<T: Real> Simulation<T> {
         Ok(sim)
     }
 
-    fn new_single_rate(
+    pub(super) fn new_single_rate(
         model: &Model,
         params: IntegrationParameters,
         effects: Effects,
+    ) -> Result<Self, SimulationBuildError> {
+        Self::new_single_rate_with(model, params, effects, None)
+    }
+
+    /// [`new_single_rate`](Self::new_single_rate), taking the stiffest mode's estimate as
+    /// `known` when given (a region built about the tool reuses the first region's: the same
+    /// tissue, and `implicit_factored` has no critical step) instead of 60 power iterations.
+    pub(super) fn new_single_rate_with(
+        model: &Model,
+        params: IntegrationParameters,
+        effects: Effects,
+        known: Option<StabilityEstimate>,
     ) -> Result<Self, SimulationBuildError> {
         model.validate()?;
         check_effects(model, &effects)?;
@@ -226,27 +221,37 @@ impl<T: Real> Simulation<T> {
         check_params(&params, &effects)?;
         check_precision::<T>(model)?;
         check_memory(model)?;
-        let mut stability = StabilityEstimate::of_model(
-            model,
-            effects.spring_damping,
-            effects.viscous_damping.unwrap_or(0.0),
-            effects.bone,
-        );
-        // A drag handle or the tool is a spring to a fixed point: it stiffens its node's modes.
-        if let Some(tool) = effects.tool {
-            let m = model.nodes.mass.iter().copied().fold(f64::INFINITY, f64::min);
-            stability.omega_max = (stability.omega_max.powi(2) + tool.stiffness / m).sqrt();
-        }
-        for h in &effects.handles {
-            let m = model.nodes.mass[h.node as usize];
-            stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
-            stability.gamma_max += h.damping / m;
-        }
-        let dynamics = Dynamics::new(model, &params, effects);
-        if let Some(k) = dynamics.effects.skin_volume {
-            let bound = dynamics.skin_volume.omega2_bound(model, k, dynamics.effects.bone);
-            stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
-        }
+        let dynamics;
+        let stability = match known {
+            Some(known) => {
+                dynamics = Dynamics::new(model, &params, effects);
+                known
+            }
+            None => {
+                let mut stability = StabilityEstimate::of_model(
+                    model,
+                    effects.spring_damping,
+                    effects.viscous_damping.unwrap_or(0.0),
+                    effects.bone,
+                );
+                // A drag handle or the tool is a spring to a fixed point: it stiffens its node's modes.
+                if let Some(tool) = effects.tool {
+                    let m = model.nodes.mass.iter().copied().fold(f64::INFINITY, f64::min);
+                    stability.omega_max = (stability.omega_max.powi(2) + tool.stiffness / m).sqrt();
+                }
+                for h in &effects.handles {
+                    let m = model.nodes.mass[h.node as usize];
+                    stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
+                    stability.gamma_max += h.damping / m;
+                }
+                dynamics = Dynamics::new(model, &params, effects);
+                if let Some(k) = dynamics.effects.skin_volume {
+                    let bound = dynamics.skin_volume.omega2_bound(model, k, dynamics.effects.bone);
+                    stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
+                }
+                stability
+            }
+        };
         check_stability(model, &stability, params.integrator)?;
         let n = model.nodes.len();
         let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };
@@ -397,11 +402,10 @@ impl<T: Real> Simulation<T> {
 
     /// Whether node `i` moves (false for fixed bone nodes and out-of-range indices).
     pub fn node_is_free(&self, i: usize) -> bool {
-        let i = match &self.multirate {
-            Some(m) => m.region_index(i),
-            None => Some(i),
-        };
-        i.and_then(|i| self.dynamics.free.get(i)).is_some_and(|f| *f != T::ZERO)
+        match &self.multirate {
+            Some(m) => m.node_is_free(i),
+            None => self.dynamics.free.get(i).is_some_and(|f| *f != T::ZERO),
+        }
     }
 
     /// What the tool felt at the last force evaluation (zero when no tool is on).
@@ -485,9 +489,22 @@ impl<T: Real> Simulation<T> {
     }
 
     fn step_inner(&mut self, stop: Option<&AtomicBool>) -> bool {
-        let Some(m) = &mut self.multirate else { return self.step_frame(stop) };
+        let Some(mut m) = self.multirate.take() else { return self.step_frame(stop) };
+        m.take_region_nodes(&mut self.state);
+        if m.exchange_due() {
+            let mut retired = m.receive(&mut self.state);
+            if let Some(relocation) = retired.as_mut() {
+                // The region moved with the tool: this simulation takes the new region's
+                // parts, `relocation` the old ones, dropped on the bulk's thread.
+                self.swap_region(&mut relocation.region);
+                m.adopt(relocation, &mut self.state);
+                self.snapshot.copy_from(&self.state);
+            }
+            m.send(&self.state, retired);
+        }
+        m.end_tick();
         m.region_effects(&mut self.dynamics.effects);
-        m.before_tick(&mut self.state);
+        self.multirate = Some(m);
         let completed = self.step_frame(stop);
         if let Some(m) = &mut self.multirate {
             m.after_tick(&self.state);
@@ -496,6 +513,22 @@ impl<T: Real> Simulation<T> {
             }
         }
         completed
+    }
+
+    /// Swaps the region's simulation parts (model, state, solver) with `other`'s; the
+    /// settings, guard totals, stage timers and coupling stay. Moves, allocates nothing.
+    fn swap_region(&mut self, other: &mut Self) {
+        std::mem::swap(&mut self.dynamics, &mut other.dynamics);
+        std::mem::swap(&mut self.dynamics.counters, &mut other.dynamics.counters);
+        std::mem::swap(&mut self.state, &mut other.state);
+        std::mem::swap(&mut self.snapshot, &mut other.snapshot);
+        std::mem::swap(&mut self.rk4, &mut other.rk4);
+        std::mem::swap(&mut self.verlet, &mut other.verlet);
+        std::mem::swap(&mut self.implicit, &mut other.implicit);
+        std::mem::swap(&mut self.factored, &mut other.factored);
+        std::mem::swap(&mut self.stability, &mut other.stability);
+        std::mem::swap(&mut self.substeps, &mut other.substeps);
+        std::mem::swap(&mut self.substeps_needed, &mut other.substeps_needed);
     }
 
     /// One frame of the simulation's own model, under the guard.
