@@ -81,6 +81,33 @@ pub struct Simulation<T: Real> {
     multirate: Option<Multirate<T>>,
 }
 
+/// The stiffest mode of `model` under `dynamics`' effects: the springs' (60 power
+/// iterations), stiffened by the tool and drag handles (springs to a fixed point) and the skin's
+/// volume springs.
+fn stiffest_mode<T: Real>(model: &Model, dynamics: &Dynamics<T>) -> StabilityEstimate {
+    let effects = &dynamics.effects;
+    let mut stability = StabilityEstimate::of_model(
+        model,
+        effects.spring_damping,
+        effects.viscous_damping.unwrap_or(0.0),
+        effects.bone,
+    );
+    if let Some(tool) = effects.tool {
+        let m = model.nodes.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        stability.omega_max = (stability.omega_max.powi(2) + tool.stiffness / m).sqrt();
+    }
+    for h in &effects.handles {
+        let m = model.nodes.mass[h.node as usize];
+        stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
+        stability.gamma_max += h.damping / m;
+    }
+    if let Some(k) = effects.skin_volume {
+        let bound = dynamics.skin_volume.omega2_bound(model, k, effects.bone);
+        stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
+    }
+    stability
+}
+
 fn check_effects(model: &Model, effects: &Effects) -> Result<(), SimulationBuildError> {
     let n = model.nodes.len() as u32;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
@@ -221,37 +248,8 @@ impl<T: Real> Simulation<T> {
         check_params(&params, &effects)?;
         check_precision::<T>(model)?;
         check_memory(model)?;
-        let dynamics;
-        let stability = match known {
-            Some(known) => {
-                dynamics = Dynamics::new(model, &params, effects);
-                known
-            }
-            None => {
-                let mut stability = StabilityEstimate::of_model(
-                    model,
-                    effects.spring_damping,
-                    effects.viscous_damping.unwrap_or(0.0),
-                    effects.bone,
-                );
-                // A drag handle or the tool is a spring to a fixed point: it stiffens its node's modes.
-                if let Some(tool) = effects.tool {
-                    let m = model.nodes.mass.iter().copied().fold(f64::INFINITY, f64::min);
-                    stability.omega_max = (stability.omega_max.powi(2) + tool.stiffness / m).sqrt();
-                }
-                for h in &effects.handles {
-                    let m = model.nodes.mass[h.node as usize];
-                    stability.omega_max = (stability.omega_max.powi(2) + h.stiffness / m).sqrt();
-                    stability.gamma_max += h.damping / m;
-                }
-                dynamics = Dynamics::new(model, &params, effects);
-                if let Some(k) = dynamics.effects.skin_volume {
-                    let bound = dynamics.skin_volume.omega2_bound(model, k, dynamics.effects.bone);
-                    stability.omega_max = (stability.omega_max.powi(2) + bound).sqrt();
-                }
-                stability
-            }
-        };
+        let dynamics = Dynamics::new(model, &params, effects);
+        let stability = known.unwrap_or_else(|| stiffest_mode(model, &dynamics));
         check_stability(model, &stability, params.integrator)?;
         let n = model.nodes.len();
         let state = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(n), time: 0.0 };
