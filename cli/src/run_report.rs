@@ -9,19 +9,14 @@ use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, SceneLoadError};
 use lamina_core::solver::{Simulation, Substeps};
+use lamina_rt::digest::sha256_hex;
 use lamina_rt::host::{HostInfo, rfc3339_utc};
 use lamina_rt::steal::StealSnapshot;
-use sha2::{Digest, Sha256};
 
 /// The Lamina version (the workspace's `version`).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 /// The git commit the binary was built from (`git rev-parse HEAD`), or `unknown`.
 pub const GIT_REVISION: &str = env!("LAMINA_GIT_REVISION");
-
-/// Lower-case hex SHA-256 of `bytes`.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// A scene with the hash of the text it was read from.
 pub struct LoadedScene {
@@ -117,17 +112,5 @@ impl RunContext {
             }
         }
         report
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sha256_hex_known_vectors_works() {
-        // FIPS 180-2 examples.
-        assert_eq!(sha256_hex(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-        assert_eq!(sha256_hex(b""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
     }
 }

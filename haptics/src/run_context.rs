@@ -8,18 +8,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, SystemTime};
 
 use lamina_bridge::{Bridge, BridgeConfig, TopologySubscriber};
+use lamina_rt::digest::sha256_hex;
 use lamina_rt::host::{HostInfo, rfc3339_utc};
-use sha2::{Digest, Sha256};
 
 /// The Lamina version (the workspace's `version`).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 /// The git commit the binary was built from (`git rev-parse HEAD`), or `unknown`.
 pub const GIT_REVISION: &str = env!("LAMINA_GIT_REVISION");
-
-/// Lower-case hex SHA-256 of `bytes`.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// Why `--scene` could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -146,13 +141,6 @@ impl TopologyWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sha256_hex_known_vectors_works() {
-        // FIPS 180-2 examples.
-        assert_eq!(sha256_hex(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-        assert_eq!(sha256_hex(b""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-    }
 
     #[test]
     fn scene_file_names_and_refusals_works() {

@@ -18,7 +18,7 @@
 //! 4. [`RealtimeSetup`] and [`install_stop_handler`]: the process-level setup,
 //!    each refusal reported, never a panic.
 //! 5. [`host`]: the machine and start time a run's report records; [`steal`]: the time a
-//!    hypervisor took from each CPU over a run.
+//!    hypervisor took from each CPU over a run; [`digest`]: the scene file's SHA-256.
 //!
 //! **Architecture invariant:** the per-tick path (loop + monitor recording)
 //! allocates nothing, takes no lock and does no I/O; `tests/no_alloc.rs`
@@ -44,6 +44,7 @@
 #![warn(missing_docs)]
 
 pub mod clock;
+pub mod digest;
 pub mod fixed_rate;
 pub mod host;
 pub mod logging;
