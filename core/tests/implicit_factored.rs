@@ -1,11 +1,13 @@
 //! The real-time implicit solver (`implicit_factored`) against closed forms and against the
 //! converged explicit solver.
 
+mod common;
+
 use lamina_core::law::{Bilinear, SpringLaw};
 use lamina_core::model::{Layer, Model, NodeKind, Tissue};
 use lamina_core::real::Real;
-use lamina_core::scene::{Scene, ToolSource};
-use lamina_core::solver::{Effects, IntegrationParameters, IntegratorKind, Simulation, SphereTool};
+use lamina_core::scene::Scene;
+use lamina_core::solver::{Effects, IntegrationParameters, IntegratorKind, Simulation};
 
 fn hanging_chain(n: usize, law: SpringLaw, m: f64, l0: f64) -> Model {
     let mut model = Model::default();
@@ -71,17 +73,10 @@ fn implicit_factored_bilinear_chain_reaches_the_static_sag_in_both_phases_works(
 /// The built-in default scene with its tool held at the device origin, stepped by
 /// `integrator` on `threads` threads; returns the simulation and the origin, m.
 fn default_scene_with_tool<T: Real>(integrator: IntegratorKind, threads: usize) -> (Simulation<T>, [f64; 3]) {
-    let scene = Scene::builtin_default();
-    let model = scene.build_model().unwrap();
-    let tool = scene.tool.expect("the default scene has a tool");
-    let ToolSource::Haptics { device_origin: origin, .. } = tool.source else { panic!("a haptic tool") };
-    let mut params = scene.solver.clone();
-    params.integrator = integrator;
-    params.threads = threads;
-    let mut effects = scene.effects.clone();
-    effects.tool =
-        Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: origin, velocity: [0.0; 3] });
-    (Simulation::<T>::new(&model, params, effects).unwrap(), origin)
+    common::limb_with_tool(Scene::builtin_default(), |params, _| {
+        params.integrator = integrator;
+        params.threads = threads;
+    })
 }
 
 /// Presses the built-in default scene's tool 8 mm into the skin over 0.5 s, holds it to

@@ -2,10 +2,10 @@
 //! ticks on its own thread) against the single-rate solvers: the same press force, the same
 //! equilibrium, results independent of the bulk thread's timing, and clear refusals.
 
+mod common;
+
 use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, ToolSource};
-use lamina_core::solver::{
-    BoneMotion, IntegratorKind, MultirateSettings, Simulation, SimulationBuildError, SphereTool,
-};
+use lamina_core::solver::{BoneMotion, IntegratorKind, MultirateSettings, Simulation, SimulationBuildError};
 
 /// The built-in default scene with its tool held at the device origin, stepped by `integrator`,
 /// multirate about the origin with `multirate`'s radius, ratio and following.
@@ -31,16 +31,10 @@ fn limb_with_tool(
     integrator: IntegratorKind,
     multirate: Option<MultirateSettings>,
 ) -> (Simulation<f32>, [f64; 3]) {
-    let model = scene.build_model().unwrap();
-    let tool = scene.tool.expect("the default scene has a tool");
-    let ToolSource::Haptics { device_origin: origin, .. } = tool.source else { panic!("a haptic tool") };
-    let mut params = scene.solver.clone();
-    params.integrator = integrator;
-    params.multirate = multirate.map(|m| MultirateSettings { centre: origin, ..m });
-    let mut effects = scene.effects.clone();
-    effects.tool =
-        Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: origin, velocity: [0.0; 3] });
-    (Simulation::<f32>::new(&model, params, effects).unwrap(), origin)
+    common::limb_with_tool(scene, |params, origin| {
+        params.integrator = integrator;
+        params.multirate = multirate.map(|m| MultirateSettings { centre: origin, ..m });
+    })
 }
 
 /// Multirate settings of `radius` (m) and `ratio`, the region following the tool.
