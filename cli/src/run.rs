@@ -170,8 +170,8 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         if let Some(p) = publisher.as_mut() {
             p.publish_stats(&s);
         }
-        let steal_now = StealSnapshot::read().ok();
         if !opts.quiet {
+            let steal_now = StealSnapshot::read().ok();
             let stolen = loop_steal_ms(steal_now.as_ref(), steal_before.as_ref(), cpu);
             let _ = writeln!(
                 out,
@@ -184,8 +184,8 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                 s.lateness.p99_ns as f64 / 1e3,
                 sim.guard_totals().rollbacks
             );
+            steal_before = steal_now;
         }
-        steal_before = steal_now;
         if run.stop == StopReason::StopFlag || STOP.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }

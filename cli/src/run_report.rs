@@ -84,14 +84,13 @@ impl RunContext {
     /// Adds the time the hypervisor took from each CPU over the run (`host_steal`), and the
     /// CPU the loop was pinned to.
     pub fn with_steal(mut self, steal: Option<&StealSnapshot>, loop_cpu: Option<usize>) -> Self {
-        let per_cpu: serde_json::Map<String, serde_json::Value> = steal
-            .map_or(&[][..], StealSnapshot::cpus)
-            .iter()
-            .map(|c| (c.cpu.to_string(), c.stolen_ms.into()))
-            .collect();
-        let steal = steal.map(|_| serde_json::json!({ "loop_cpu": loop_cpu, "per_cpu_ms": per_cpu }));
+        let steal = steal.map_or(serde_json::Value::Null, |s| {
+            let per_cpu: serde_json::Map<String, serde_json::Value> =
+                s.cpus().iter().map(|c| (c.cpu.to_string(), c.stolen_ms.into())).collect();
+            serde_json::json!({ "loop_cpu": loop_cpu, "per_cpu_ms": per_cpu })
+        });
         if let Some(fields) = self.fields.as_object_mut() {
-            fields.insert("host_steal".into(), steal.unwrap_or(serde_json::Value::Null));
+            fields.insert("host_steal".into(), steal);
         }
         self
     }

@@ -318,8 +318,7 @@ impl Layout {
     }
 }
 
-/// Builds the region's simulation about a centre: at start on the caller's thread, and about
-/// the tool on the bulk's thread when the region follows it.
+/// Builds regions about the tool on the bulk's thread, for a region that follows it.
 pub(crate) struct RegionBuilder {
     /// The whole model (its own copy, for the bulk's thread).
     model: Model,
@@ -329,7 +328,7 @@ pub(crate) struct RegionBuilder {
     effects: Effects,
     settings: MultirateSettings,
     /// The first region's stiffest-mode estimate, reused by the regions built after it.
-    pub(crate) known_stability: Option<super::critical_step::StabilityEstimate>,
+    known_stability: super::critical_step::StabilityEstimate,
 }
 
 /// A region built about a new centre, on its way to the loop's thread; on its way back, the
@@ -340,13 +339,15 @@ pub(crate) struct Relocation<T: Real> {
 }
 
 impl RegionBuilder {
-    pub fn new(
+    /// A builder with its own copy of `model`; `first` is the region built at start.
+    pub fn new<T: Real>(
         model: &Model,
         params: super::IntegrationParameters,
         effects: Effects,
         settings: MultirateSettings,
+        first: &super::Simulation<T>,
     ) -> Self {
-        Self { model: model.clone(), params, effects, settings, known_stability: None }
+        Self { model: model.clone(), params, effects, settings, known_stability: first.stability() }
     }
 
     /// The region about `centre` and its simulation at rest, its loads and handles lists
@@ -357,23 +358,31 @@ impl RegionBuilder {
         capacity: (usize, usize),
     ) -> Result<Relocation<T>, super::SimulationBuildError> {
         let settings = MultirateSettings { centre, ..self.settings };
-        let partition = Partition::of(&self.model, &settings);
-        partition.check(&settings).map_err(super::SimulationBuildError::Multirate)?;
-        let region_model = partition.region_model(&self.model);
-        let layout = Layout::new(partition, centre);
-        let mut effects = self.effects.clone();
-        effects.loads.reserve(capacity.0);
-        effects.handles.reserve(capacity.1);
-        let mut region_effects = effects.clone();
-        layout.map_effects(&effects, &mut region_effects);
-        let region = super::Simulation::new_single_rate_with(
-            &region_model,
-            self.params.clone(),
-            region_effects,
-            self.known_stability,
-        )?;
-        Ok(Relocation { layout, region })
+        build_region(&self.model, &self.params, &self.effects, &settings, capacity, Some(self.known_stability))
     }
+}
+
+/// The region of `model` about `settings.centre` and its simulation at rest (`params`, the
+/// region's; `effects` in model node indices), its loads and handles lists holding at least
+/// `capacity` (loads, handles) entries; `known` skips the stiffest-mode estimate.
+pub(crate) fn build_region<T: Real>(
+    model: &Model,
+    params: &super::IntegrationParameters,
+    effects: &Effects,
+    settings: &MultirateSettings,
+    capacity: (usize, usize),
+    known: Option<super::critical_step::StabilityEstimate>,
+) -> Result<Relocation<T>, super::SimulationBuildError> {
+    let partition = Partition::of(model, settings);
+    partition.check(settings).map_err(super::SimulationBuildError::Multirate)?;
+    let region_model = partition.region_model(model);
+    let layout = Layout::new(partition, settings.centre);
+    let mut region_effects = effects.clone();
+    region_effects.loads.reserve(capacity.0);
+    region_effects.handles.reserve(capacity.1);
+    layout.map_effects(effects, &mut region_effects);
+    let region = super::Simulation::new_single_rate_with(&region_model, params.clone(), region_effects, known)?;
+    Ok(Relocation { layout, region })
 }
 
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.

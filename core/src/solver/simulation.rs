@@ -19,7 +19,9 @@ use super::effects::Effects;
 use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
-use super::multirate::{MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder};
+use super::multirate::{
+    MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder, Relocation, build_region,
+};
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
 use crate::model::Model;
@@ -205,15 +207,16 @@ impl<T: Real> Simulation<T> {
             multirate: None,
             ..params.clone()
         };
-        let mut builder = RegionBuilder::new(model, region_params, effects.clone(), settings);
         let capacity = (effects.loads.capacity(), effects.handles.capacity());
-        let super::multirate::Relocation { layout, region: mut sim } = builder.build::<T>(settings.centre, capacity)?;
-        builder.known_stability = Some(sim.stability);
+        let Relocation { layout, region: mut sim } =
+            build_region::<T>(model, &region_params, &effects, &settings, capacity, None)?;
+        // Only a region that follows the tool needs the builder's copy of the model.
+        let builder =
+            settings.follow_tool.then(|| RegionBuilder::new(model, region_params, effects.clone(), settings, &sim));
         let bulk = Self::new_single_rate(model, bulk_params, effects.clone())?;
         // Pinned workers go from the first CPU up and the loop to the last: the bulk takes the first.
         let cpu =
             if params.pin_workers { core_affinity::get_core_ids().and_then(|c| c.first().copied()) } else { None };
-        let builder = settings.follow_tool.then_some(builder);
         let mut coupling = Multirate::start(model, bulk, layout, builder, &settings, effects, cpu)
             .map_err(|e| SimulationBuildError::Multirate(format!("starting the bulk's thread: {e}")))?;
         // The bulk and the region start from the model at rest, as the whole state does.
