@@ -225,7 +225,8 @@ enum StudyCommand {
         #[arg(long, default_value_t = 0.1)]
         seconds: f64,
     },
-    /// The hard cases: finite, bounded, no energy gain, guard activity.
+    /// The hard cases with every integrator and multirate stepping: finite, bounded, no
+    /// energy gain, guard activity.
     Stability {
         /// Print JSON instead of a table.
         #[arg(long)]

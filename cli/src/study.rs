@@ -5,8 +5,8 @@ use super::plot::{Series, log_log_lines};
 use lamina_core::scene::Scene;
 use lamina_core::solver::IntegratorKind;
 use lamina_core::study::{
-    AccuracyCase, AccuracyRow, AccuracyStudy, PRESS_DEPTH_M, REFERENCE_TOLERANCE, accuracy_study, run_case,
-    stability_cases,
+    AccuracyCase, AccuracyRow, AccuracyStudy, CouplingRow, MULTIRATE_ROW, PRESS_DEPTH_M, REFERENCE_TOLERANCE,
+    accuracy_study, coupling_sweep, run_case, run_case_multirate, stability_cases,
 };
 use lamina_core::study::{PUBLISHED_MODULI, effective_modulus, hertz_force, indentation as indent_scene};
 use std::path::Path;
@@ -181,7 +181,10 @@ pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<()
 pub fn stability(json: bool) -> Result<(), String> {
     let mut rows = Vec::new();
     if !json {
-        println!("hard cases, f32, every integrator; machine: {}", machine::describe());
+        println!(
+            "hard cases, f32, every integrator and multirate stepping (3 cm region about the top centre, ratio 8); machine: {}",
+            machine::describe()
+        );
         println!(
             "{:<33} {:<17} {:>5} {:>7} {:>6} {:>9} {:>8} {:>9} {:>6} {:>9} {:>5} {:>5} {:>5} {:>6}",
             "case",
@@ -202,14 +205,18 @@ pub fn stability(json: bool) -> Result<(), String> {
     }
     // Silent with --json (the table prints as it goes otherwise): a bar shows the cases.
     let bar = if json {
-        super::progress::steps((stability_cases().len() * IntegratorKind::ALL.len()) as u64, "study stability")
+        super::progress::steps((stability_cases().len() * (IntegratorKind::ALL.len() + 1)) as u64, "study stability")
     } else {
         indicatif::ProgressBar::hidden()
     };
     for case in stability_cases() {
-        for k in IntegratorKind::ALL {
-            bar.set_message(format!("{} {k:?}", case.name));
-            let r = run_case(&case, k);
+        // Every integrator, then multirate stepping (`None`).
+        for k in IntegratorKind::ALL.map(Some).into_iter().chain([None]) {
+            bar.set_message(format!("{} {}", case.name, k.map_or(MULTIRATE_ROW, IntegratorKind::name)));
+            let r = match k {
+                Some(k) => run_case(&case, k),
+                None => run_case_multirate(&case),
+            };
             bar.inc(1);
             if !json {
                 println!(
@@ -234,9 +241,7 @@ pub fn stability(json: bool) -> Result<(), String> {
         }
     }
     bar.finish_and_clear();
-    if json {
-        println!("{}", serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?);
-    } else {
+    if !json {
         println!(
             "\nE excess: largest (E(t) - W_loads(t) - E(0)) / energy scale; 0 means energy never exceeded the work put in.\nk ratio: stiffest over softest spring tangent in the final state; stiff: bilinear springs in their stiff phase then."
         );
@@ -244,7 +249,53 @@ pub fn stability(json: bool) -> Result<(), String> {
             println!("  {:<33} {}", case.name, case.description);
         }
     }
+    let coupling = coupling_table(json);
+    if json {
+        let out = serde_json::json!({ "cases": rows, "multirate_coupling": coupling });
+        println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
+    }
     Ok(())
+}
+
+/// Cases of the multirate coupling sweep: the stiff skin, and a sudden load on the default one.
+const COUPLING_CASES: [&str; 3] = ["stiffness_ratio_1e4", "stiffness_ratio_1e6", "sudden_large_load"];
+
+/// Runs [`coupling_sweep`] on [`COUPLING_CASES`] and prints it as a table unless `json`.
+fn coupling_table(json: bool) -> Vec<CouplingRow> {
+    const RADII_M: [f64; 6] = [0.025, 0.03, 0.035, 0.04, 0.045, 0.05];
+    const RATIOS: [u32; 3] = [2, 8, 20];
+    const SECONDS: f64 = 2.0;
+    let cases: Vec<_> = stability_cases().into_iter().filter(|c| COUPLING_CASES.contains(&c.name)).collect();
+    let bar = super::progress::steps(cases.len() as u64, "multirate coupling sweep");
+    let mut rows = Vec::new();
+    for case in &cases {
+        bar.set_message(case.name);
+        rows.extend(coupling_sweep(case, &RADII_M, &RATIOS, SECONDS));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    if !json {
+        println!(
+            "\nmultirate coupling: region radius and ratio swept, {SECONDS} s each beside single-rate implicit_factored (f32);\nover the second second, the largest node distance from the single-rate run (deviation) and the largest kinetic energy"
+        );
+        println!(
+            "{:<20} {:>9} {:>6} {:>13} {:>10} {:>13} {:>14}",
+            "case", "radius mm", "ratio", "deviation m", "KE J", "single KE J", "single max|u| m"
+        );
+        for r in &rows {
+            println!(
+                "{:<20} {:>9.1} {:>6} {:>13.2e} {:>10.1e} {:>13.1e} {:>14.2e}",
+                r.case,
+                r.radius_m * 1e3,
+                r.ratio,
+                r.late_deviation_m,
+                r.late_kinetic_j,
+                r.single_late_kinetic_j,
+                r.single_max_displacement_m
+            );
+        }
+    }
+    rows
 }
 
 /// Runs `lamina study indentation`: every scene's sites pressed, printed against the published

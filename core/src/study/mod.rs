@@ -5,6 +5,7 @@
 //! very same cases.
 
 mod accuracy;
+mod coupling;
 mod energy;
 mod indentation;
 mod reference;
@@ -13,10 +14,13 @@ mod stability;
 pub use accuracy::{
     AccuracyCase, AccuracyRow, AccuracyStudy, PRESS_DEPTH_M, REFERENCE_TOLERANCE, ReferenceSummary, accuracy_study,
 };
+pub use coupling::{CouplingRow, coupling_sweep};
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
 pub use indentation::{
     IndentationCurve, IndentationError, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus,
     hertz_force, indentation,
 };
 pub use reference::{MAX_REFERENCE_STEPS, Reference, ReferenceError, max_distance};
-pub use stability::{StabilityCase, StabilityRow, run_case, stability_cases};
+pub use stability::{
+    MULTIRATE_ROW, StabilityCase, StabilityRow, multirate_settings, run_case, run_case_multirate, stability_cases,
+};

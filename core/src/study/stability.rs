@@ -2,15 +2,16 @@
 //! state, steps ten times the explicit limit (sub-stepped automatically, and taken as one fixed
 //! step with and without the guard), pulls to three times rest length, zero-length and
 //! inverted springs, coincident nodes, sudden large loads. Each must stay finite and bounded, and never hold
-//! more energy than was put in.
+//! more energy than was put in. Every case runs with every integrator and with multirate
+//! stepping ([`run_case_multirate`]).
 
 use super::energy::EnergyLedger;
 use crate::law::{Bilinear, SpringLaw};
 use crate::model::Model;
 use crate::scene::{BlockSpec, LayerMaterial, layered_block};
 use crate::solver::{
-    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, PointLoad, Simulation, SphereTool,
-    Substeps,
+    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, MultirateSettings, PointLoad,
+    Simulation, SphereTool, Substeps,
 };
 use serde::Serialize;
 use std::time::Instant;
@@ -24,6 +25,13 @@ pub struct StabilityCase {
     build: fn(IntegratorKind) -> (Model, IntegrationParameters, Effects),
     /// Frames to run.
     pub frames: usize,
+}
+
+impl StabilityCase {
+    /// The case's model, step and effects for `integrator`, to run it outside the study.
+    pub fn setup(&self, integrator: IntegratorKind) -> (Model, IntegrationParameters, Effects) {
+        (self.build)(integrator)
+    }
 }
 
 /// Outcome of one case with one integrator.
@@ -251,8 +259,39 @@ pub fn stability_cases() -> Vec<StabilityCase> {
 /// Runs `case` with `integrator` in `f32` (the real-time precision).
 pub fn run_case(case: &StabilityCase, integrator: IntegratorKind) -> StabilityRow {
     let (model, params, effects) = (case.build)(integrator);
-    let mut sim = Simulation::<f32>::new(&model, params, effects).expect("hard cases are valid models");
-    let mut ledger = EnergyLedger::new(&model, &sim);
+    run_built(case, integrator.name(), &model, params, effects)
+}
+
+/// Name of the multirate rows.
+pub const MULTIRATE_ROW: &str = "multirate";
+
+/// The multirate region of the hard cases: 3 cm about the block's top centre (where every
+/// case pulls, loads or presses; the region follows the tool of `tool_through_skin`), the
+/// bulk one step per 8 frames.
+pub fn multirate_settings(model: &Model) -> MultirateSettings {
+    let centre = model.nodes.position[top_centre(model) as usize];
+    MultirateSettings { centre, radius: 0.03, ratio: 8, follow_tool: true }
+}
+
+/// Runs `case` with multirate stepping in `f32`: the region about the block's top centre
+/// ([`multirate_settings`]) with `implicit_factored` at the case's step, the whole block
+/// with it at 8 times that step on a thread of its own. The row's integrator is
+/// [`MULTIRATE_ROW`]; sub-steps and the critical step are the region's.
+pub fn run_case_multirate(case: &StabilityCase) -> StabilityRow {
+    let (model, mut params, effects) = (case.build)(IntegratorKind::ImplicitFactored);
+    params.multirate = Some(multirate_settings(&model));
+    run_built(case, MULTIRATE_ROW, &model, params, effects)
+}
+
+fn run_built(
+    case: &StabilityCase,
+    integrator: &'static str,
+    model: &Model,
+    params: IntegrationParameters,
+    effects: Effects,
+) -> StabilityRow {
+    let mut sim = Simulation::<f32>::new(model, params, effects).expect("hard cases are valid models");
+    let mut ledger = EnergyLedger::new(model, &sim);
     let mut finite = true;
     let mut max_disp: f64 = 0.0;
     let mut max_stretch: f64 = 0.0;
@@ -261,7 +300,7 @@ pub fn run_case(case: &StabilityCase, integrator: IntegratorKind) -> StabilityRo
         sim.step();
         let s = sim.state();
         finite &= s.x.all_finite() && s.v.all_finite();
-        ledger.record(&model, &sim);
+        ledger.record(model, &sim);
         for i in 0..model.nodes.len() {
             let (p, r) = (s.x.get_f64(i), model.nodes.position[i]);
             max_disp = max_disp.max(((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt());
@@ -276,11 +315,11 @@ pub fn run_case(case: &StabilityCase, integrator: IntegratorKind) -> StabilityRo
         }
     }
     let wall_s = start.elapsed().as_secs_f64();
-    let (loaded_stiffness_ratio, stiff_phase_springs) = loaded_stiffness(&model, &sim);
+    let (loaded_stiffness_ratio, stiff_phase_springs) = loaded_stiffness(model, &sim);
     let g = sim.guard_totals();
     StabilityRow {
         case: case.name,
-        integrator: integrator.name(),
+        integrator,
         frames: case.frames,
         substeps: sim.substeps(),
         substep_over_critical: sim.params().dt / sim.substeps() as f64 / sim.critical_step(),
