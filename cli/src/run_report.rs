@@ -8,7 +8,7 @@ use std::time::SystemTime;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, SceneLoadError};
-use lamina_core::solver::{Simulation, Substeps};
+use lamina_core::solver::{MultirateStatus, Simulation, Substeps};
 use lamina_rt::digest::sha256_hex;
 use lamina_rt::host::{HostInfo, rfc3339_utc};
 use lamina_rt::steal::StealSnapshot;
@@ -91,6 +91,32 @@ impl RunContext {
         });
         if let Some(fields) = self.fields.as_object_mut() {
             fields.insert("host_steal".into(), steal);
+        }
+        self
+    }
+
+    /// Adds the multirate coupling's counts (`multirate`), `null` without multirate stepping.
+    pub fn with_multirate(mut self, status: Option<MultirateStatus>) -> Self {
+        let multirate = status.map_or(serde_json::Value::Null, |m| {
+            serde_json::json!({
+                "region_nodes": m.region_nodes,
+                "bulk_nodes": m.bulk_nodes,
+                "ratio": m.ratio,
+                "bulk_steps": m.bulk_steps,
+                "bulk_step_max_us": m.bulk_step_max_ns as f64 / 1e3,
+                "waits": m.waits,
+                "wait_max_us": m.wait_max_ns as f64 / 1e3,
+                "refused": m.refused,
+                "recentres": m.recentres,
+                "recentres_refused": m.recentres_refused,
+                "recentre_build_max_us": m.recentre_build_max_ns as f64 / 1e3,
+                "coupling_gap_m": m.coupling_gap_m,
+                "coupling_gap_max_m": m.coupling_gap_max_m,
+                "bulk_stopped": m.bulk_stopped,
+            })
+        });
+        if let Some(fields) = self.fields.as_object_mut() {
+            fields.insert("multirate".into(), multirate);
         }
         self
     }

@@ -276,19 +276,20 @@ fn coupling_table(json: bool) -> Vec<CouplingRow> {
     bar.finish_and_clear();
     if !json {
         println!(
-            "\nmultirate coupling: region radius and ratio swept, {SECONDS} s each beside single-rate implicit_factored (f32);\nover the second second, the largest node distance from the single-rate run (deviation) and the largest kinetic energy"
+            "\nmultirate coupling: region radius and ratio swept, {SECONDS} s each beside single-rate implicit_factored (f32);\nover the second second: the largest node distance from the single-rate run (deviation), the largest coupling gap the run reported, the largest kinetic energy"
         );
         println!(
-            "{:<20} {:>9} {:>6} {:>13} {:>10} {:>13} {:>14}",
-            "case", "radius mm", "ratio", "deviation m", "KE J", "single KE J", "single max|u| m"
+            "{:<20} {:>9} {:>6} {:>12} {:>12} {:>10} {:>12} {:>15}",
+            "case", "radius mm", "ratio", "deviation m", "gap m", "KE J", "single KE J", "single max|u| m"
         );
         for r in &rows {
             println!(
-                "{:<20} {:>9.1} {:>6} {:>13.2e} {:>10.1e} {:>13.1e} {:>14.2e}",
+                "{:<20} {:>9.1} {:>6} {:>12.2e} {:>12.2e} {:>10.1e} {:>12.1e} {:>15.2e}",
                 r.case,
                 r.radius_m * 1e3,
                 r.ratio,
                 r.late_deviation_m,
+                r.late_coupling_gap_m,
                 r.late_kinetic_j,
                 r.single_late_kinetic_j,
                 r.single_max_displacement_m

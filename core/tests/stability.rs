@@ -179,5 +179,26 @@ fn multirate_follows_single_rate_where_its_coupling_holds_works() {
     for row in coupling_sweep(case("stiffness_ratio_1e4"), &radii, &[2], 2.0) {
         assert!(row.late_deviation_m < 1e-3, "{row:?}");
         assert!(row.late_kinetic_j < 1e-4, "{row:?}");
+        assert!(row.late_coupling_gap_m < 1e-4, "{row:?}");
+    }
+}
+
+/// Where the coupling fails, the run says so: the 10^4 skin at ratio 8, whose deviation from
+/// single-rate `implicit_factored` reaches centimetres from a 4 cm region up, reports a coupling
+/// gap (the two halves' distance apart where both step, known to the run without a
+/// single-rate run beside it) above 1 mm exactly there, and below it where the deviation stays
+/// within 3 mm (measured: 5.2-27 mm against 0.09-0.21 mm).
+#[test]
+fn multirate_coupling_gap_flags_a_failing_coupling_works() {
+    let cases = stability_cases();
+    let case = cases.iter().find(|c| c.name == "stiffness_ratio_1e4").expect("case exists");
+    let rows = coupling_sweep(case, &[0.025, 0.03, 0.035, 0.04, 0.045, 0.05], &[8], 2.0);
+    assert!(rows.iter().any(|r| r.late_deviation_m > 0.01), "the sweep holds a failing coupling: {rows:?}");
+    for row in &rows {
+        if row.late_deviation_m > 0.01 {
+            assert!(row.late_coupling_gap_m > 1e-3, "a failing coupling unflagged: {row:?}");
+        } else if row.late_deviation_m < 3e-3 {
+            assert!(row.late_coupling_gap_m < 1e-3, "a holding coupling flagged: {row:?}");
+        }
     }
 }

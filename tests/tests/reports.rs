@@ -180,7 +180,45 @@ fn built_in_scene_is_hashed_as_its_text_works() {
     assert!(c["scene"]["file"].is_null(), "{}", c["scene"]);
     assert_eq!(c["scene"]["name"], Scene::builtin_default().name.as_str());
     assert!(c["prefix"].is_null());
-    // Nothing is published, so nothing is sent.
+    // Nothing is published, so nothing is sent; no multirate stepping.
     assert_eq!(c["send"]["max_ns"].as_u64(), Some(0), "{}", c["send"]);
+    assert!(c["multirate"].is_null(), "{}", c["multirate"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The default scene with multirate stepping (a 5 cm region, ratio 8): the report's
+/// `multirate` counts the bulk's steps against the ticks run, sizes the region against the
+/// model, and its coupling gap is the healthy coupling's (the limb pulled by its handle: the
+/// halves agree to hundredths of a millimetre; a failing coupling shows millimetres).
+#[test]
+fn multirate_run_reports_its_coupling_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch("reports_multirate");
+    let (scene_file, report) = (dir.join("multirate.toml"), dir.join("core_report.json"));
+    let text = std::fs::read_to_string(root().join("config/scenes/default.toml")).unwrap();
+    std::fs::write(&scene_file, format!("{text}\n[solver.multirate]\nradius = 0.05\nratio = 8\n")).unwrap();
+    let model = Scene::load(&scene_file).unwrap().build_model().unwrap();
+    let mut run = Command::new(workspace_bin("lamina"))
+        .args(["run", "--quiet", "--no-publish", "--seconds", "1", "--scene"])
+        .arg(&scene_file)
+        .arg("--report")
+        .arg(&report)
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("starting lamina run");
+    assert!(wait_with_watchdog(&mut run, Duration::from_secs(60), "lamina run").success());
+    let c = read_json(&report);
+    let m = &c["multirate"];
+    let count = |key: &str| m[key].as_u64().unwrap_or_else(|| panic!("multirate.{key}: {m}"));
+    assert_eq!(count("ratio"), 8, "{m}");
+    let free = model.nodes.kind.iter().filter(|k| **k == lamina_core::model::NodeKind::Free).count() as u64;
+    assert_eq!(count("region_nodes") + count("bulk_nodes"), free, "{m}");
+    assert!(count("region_nodes") > 0 && count("bulk_nodes") > count("region_nodes"), "{m}");
+    // One bulk step per 8 ticks, counting the untimed warm-up frames and any skipped tick.
+    let ticks = c["ticks"].as_u64().unwrap();
+    assert!(count("bulk_steps") * 8 >= ticks, "{} bulk steps for {ticks} ticks", count("bulk_steps"));
+    let gap = m["coupling_gap_max_m"].as_f64().unwrap();
+    assert!(gap > 0.0 && gap < 1e-4, "{m}");
+    assert!(!m["bulk_stopped"].as_bool().unwrap(), "{m}");
     let _ = std::fs::remove_dir_all(&dir);
 }

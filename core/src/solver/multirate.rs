@@ -123,6 +123,9 @@ pub(crate) struct Partition {
     /// Region nodes a few springs from its edge, ascending: what the bulk takes from the
     /// region (the overlap between them is the bulk's own in its step).
     pub core: Vec<u32>,
+    /// The region's other nodes (within `OVERLAP_SPRINGS` of its edge), ascending: both
+    /// halves step them, each its own way; how far apart they put them is the coupling gap.
+    pub overlap: Vec<u32>,
     /// Free nodes outside it (the bulk's), ascending.
     pub outer: Vec<u32>,
     /// The region's nodes and their spring neighbours (the ring, held in the region's model),
@@ -155,12 +158,12 @@ impl Partition {
         // The core: region nodes more than OVERLAP_SPRINGS springs from any node outside it.
         let outside = in_region.iter().map(|r| !r).collect();
         let near_edge = spread_along_springs(model, outside, OVERLAP_SPRINGS);
-        let core = inner.iter().copied().filter(|&i| !near_edge[i as usize]).collect();
+        let (overlap, core) = inner.iter().partition(|&&i| near_edge[i as usize]);
         let mut local_of = vec![u32::MAX; n];
         for (l, &i) in kept.iter().enumerate() {
             local_of[i as usize] = l as u32;
         }
-        Self { inner, core, outer, kept, local_of }
+        Self { inner, core, overlap, outer, kept, local_of }
     }
 
     /// The region's model: the kept nodes (the ring fixed to bone), the springs and surface
@@ -275,6 +278,8 @@ pub(crate) struct Layout {
     inner_local: Vec<u32>,
     /// The region's core (what the bulk takes), indices in the region's model.
     core_local: Vec<u32>,
+    /// The overlap ([`Partition::overlap`]), indices in the region's model.
+    overlap_local: Vec<u32>,
     /// The ring (held in the region's model, stepped by the bulk): indices in the region's
     /// model and in [`Partition::outer`].
     ring_local: Vec<u32>,
@@ -285,6 +290,7 @@ impl Layout {
     fn new(partition: Partition, centre: [f64; 3]) -> Self {
         let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
         let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
+        let overlap_local = local(&partition.overlap);
         let (ring_local, ring_outer) = partition
             .outer
             .iter()
@@ -292,7 +298,7 @@ impl Layout {
             .filter(|&(_, &i)| partition.local_of[i as usize] != u32::MAX)
             .map(|(k, &i)| (partition.local_of[i as usize], k as u32))
             .unzip();
-        Self { centre, partition, inner_local, core_local, ring_local, ring_outer }
+        Self { centre, partition, inner_local, core_local, overlap_local, ring_local, ring_outer }
     }
 
     /// `effects` (model node indices) in the region's node indices, into `into`: loads and
@@ -396,6 +402,8 @@ struct Packet<T: Real> {
     /// The bulk's positions (m) and velocities (m/s), in [`Partition::outer`] order.
     outer_x: Vec3s<T>,
     outer_v: Vec3s<T>,
+    /// The bulk's positions of the overlap (m), in [`Partition::overlap`] order.
+    overlap_x: Vec3s<T>,
     /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
     /// Compute time of the bulk's step that filled `outer_*`, ns.
@@ -454,6 +462,13 @@ pub struct MultirateStatus {
     /// The bulk thread has ended (only a panic in its step ends it early): the region goes
     /// on alone with the ring held where the bulk last left it.
     pub bulk_stopped: bool,
+    /// At the last exchange, the largest distance between where the bulk and where the
+    /// region put a node both step (the overlap, near the region's edge), m. Hundredths of a
+    /// millimetre while the two halves agree; millimetres and more where the coupling fails
+    /// (docs/accuracy-and-stability.md).
+    pub coupling_gap_m: f64,
+    /// The largest [`coupling_gap_m`](Self::coupling_gap_m) so far, m.
+    pub coupling_gap_max_m: f64,
 }
 
 /// The region's side of the coupling: the partition, the whole model's state, the bulk's
@@ -541,6 +556,7 @@ impl<T: Real> Multirate<T> {
             core_v: Vec3s::zeros(free_count),
             outer_x: Vec3s::zeros(free_count),
             outer_v: Vec3s::zeros(free_count),
+            overlap_x: Vec3s::zeros(free_count),
             tool: None,
             step_ns: 0,
             build_ns: 0,
@@ -552,12 +568,13 @@ impl<T: Real> Multirate<T> {
             relocation: None,
         });
         gather(&full.x, &layout.partition.outer, &mut packet.outer_x);
+        gather(&full.x, &layout.partition.overlap, &mut packet.overlap_x);
         let to_bulk = Arc::new(ArrayQueue::new(1));
         let to_region = Arc::new(ArrayQueue::new(1));
         let quit = Arc::new(AtomicBool::new(false));
         let thread = {
             let (to_bulk, to_region, quit) = (Arc::clone(&to_bulk), Arc::clone(&to_region), Arc::clone(&quit));
-            let lists = (layout.partition.core.clone(), layout.partition.outer.clone());
+            let lists = BulkLists::of(&layout.partition);
             std::thread::Builder::new().name("lamina-bulk".into()).spawn(move || {
                 if let Some(cpu) = cpu {
                     core_affinity::set_for_current(cpu);
@@ -640,6 +657,10 @@ impl<T: Real> Multirate<T> {
         let l = &self.layout;
         let mut relocation = None;
         if packet.finite {
+            // Both halves at the same instant, in the layout the bulk stepped.
+            let gap = largest_distance(&packet.overlap_x, &region.x, &l.overlap_local);
+            self.status.coupling_gap_m = gap;
+            self.status.coupling_gap_max_m = self.status.coupling_gap_max_m.max(gap);
             // The bulk's nodes hold this state until the next exchange (zero-order hold: a
             // ring moved on its velocity between exchanges follows the single-rate solver no
             // better and is less damped).
@@ -774,19 +795,46 @@ impl<T: Real> Drop for Multirate<T> {
     }
 }
 
+/// The node lists of a region's layout the bulk thread uses (model indices).
+struct BulkLists {
+    /// What it takes from the region ([`Partition::core`]).
+    core: Vec<u32>,
+    /// What it returns for the coupling gap ([`Partition::overlap`]).
+    overlap: Vec<u32>,
+    /// What it returns for the region's ring and the whole state ([`Partition::outer`]).
+    outer: Vec<u32>,
+}
+
+impl BulkLists {
+    fn of(p: &Partition) -> Self {
+        Self { core: p.core.clone(), overlap: p.overlap.clone(), outer: p.outer.clone() }
+    }
+}
+
+/// The largest distance (m) between `a[k]` and `b[b_nodes[k]]` over `k`; 0 for no node.
+fn largest_distance<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>, b_nodes: &[u32]) -> f64 {
+    let (a, b) = (a.slices(), b.slices());
+    let mut largest = 0.0f64;
+    for (k, &i) in b_nodes.iter().enumerate() {
+        let d2: f64 = (0..3).map(|c| (a[c][k].to_f64() - b[c][i as usize].to_f64()).powi(2)).sum();
+        largest = largest.max(d2);
+    }
+    largest.sqrt()
+}
+
 /// The bulk thread: waits for the packet, takes the region's state and tool into the whole
 /// model's state, steps it, returns the bulk's nodes in the packet; builds a region about
-/// the tool when asked. `lists` are the core and outer node lists of the region's layout.
+/// the tool when asked. `lists` are the node lists of the region's layout.
 fn bulk_loop<T: Real>(
     bulk: &mut super::Simulation<T>,
-    mut lists: (Vec<u32>, Vec<u32>),
+    mut lists: BulkLists,
     builder: Option<&RegionBuilder>,
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
     quit: &AtomicBool,
 ) {
     // The lists of a region built and sent, until the region says it took it.
-    let mut pending: Option<(Vec<u32>, Vec<u32>)> = None;
+    let mut pending: Option<BulkLists> = None;
     // A region built about the tool (or why not) and its build time, ns, for the next packet.
     let mut built: Option<(Result<Relocation<T>, super::SimulationBuildError>, u64)> = None;
     loop {
@@ -806,7 +854,7 @@ fn bulk_loop<T: Real>(
             lists = next;
         }
         pending = None;
-        let (core, outer) = (&lists.0, &lists.1);
+        let BulkLists { core, overlap, outer } = &lists;
         bulk.effects_mut().tool = packet.tool;
         let state = bulk.state_mut();
         scatter(&packet.core_x, core, &mut state.x);
@@ -816,6 +864,7 @@ fn bulk_loop<T: Real>(
         let state = bulk.state();
         gather(&state.x, outer, &mut packet.outer_x);
         gather(&state.v, outer, &mut packet.outer_v);
+        gather(&state.x, overlap, &mut packet.overlap_x);
         packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite();
         packet.step_ns = start.elapsed().as_nanos() as u64;
         (packet.recentre_refused, packet.build_ns) = (false, 0);
@@ -823,8 +872,7 @@ fn bulk_loop<T: Real>(
             packet.build_ns = build_ns;
             match result {
                 Ok(relocation) => {
-                    let p = &relocation.layout.partition;
-                    pending = Some((p.core.clone(), p.outer.clone()));
+                    pending = Some(BulkLists::of(&relocation.layout.partition));
                     packet.relocation = Some(Box::new(relocation));
                 }
                 Err(_) => packet.recentre_refused = true,

@@ -22,6 +22,10 @@ pub struct CouplingRow {
     /// Over the second half of the run: the largest distance of a node from where single-rate
     /// `implicit_factored` has it, m.
     pub late_deviation_m: f64,
+    /// Over the second half of the run: the largest coupling gap the multirate run reported
+    /// ([`MultirateStatus::coupling_gap_m`](crate::solver::MultirateStatus::coupling_gap_m)),
+    /// m: what a run without a single-rate run beside it sees of the deviation.
+    pub late_coupling_gap_m: f64,
     /// Over the second half of the run: the largest kinetic energy of the multirate run, J.
     pub late_kinetic_j: f64,
     /// The same for the single-rate run, J.
@@ -49,6 +53,7 @@ pub fn coupling_sweep(case: &StabilityCase, radii: &[f64], ratios: &[u32], secon
     let frames = (seconds / params.dt).round() as usize;
     let mut deviation = vec![0.0f64; runs.len()];
     let mut kinetic = vec![0.0f64; runs.len()];
+    let mut gap = vec![0.0f64; runs.len()];
     let (mut single_kinetic, mut single_displacement) = (0.0f64, 0.0f64);
     let distance = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
     for frame in 0..frames {
@@ -65,6 +70,7 @@ pub fn coupling_sweep(case: &StabilityCase, radii: &[f64], ratios: &[u32], secon
             sim.step();
             if late {
                 kinetic[k] = kinetic[k].max(mechanical_energy(&model, sim).kinetic);
+                gap[k] = gap[k].max(sim.multirate_status().map_or(0.0, |m| m.coupling_gap_m));
                 let x = &sim.state().x;
                 for i in 0..model.nodes.len() {
                     deviation[k] = deviation[k].max(distance(x.get_f64(i), xs.get_f64(i)));
@@ -79,6 +85,7 @@ pub fn coupling_sweep(case: &StabilityCase, radii: &[f64], ratios: &[u32], secon
             radius_m,
             ratio,
             late_deviation_m: deviation[k],
+            late_coupling_gap_m: gap[k],
             late_kinetic_j: kinetic[k],
             single_late_kinetic_j: single_kinetic,
             single_max_displacement_m: single_displacement,
