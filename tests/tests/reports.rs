@@ -222,3 +222,79 @@ fn multirate_run_reports_its_coupling_works() {
     assert!(!m["bulk_stopped"].as_bool().unwrap(), "{m}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A scene on which the multirate coupling fails: a 10 x 6 cm block whose skin is 10^4 times
+/// stiffer than its fat in its stiff phase, pulled up at the centre of its top by a handle, a
+/// 5 cm region about it. At ratio 8 the region's edge swings (the stability suite's
+/// `stiffness_ratio_1e4`, centimetres from the single-rate solver there) and `lamina run`
+/// says so; at ratio 2 the coupling holds and it does not.
+fn stiff_skin_block(ratio: u32) -> String {
+    format!(
+        r#"name = "stiff-skin-block"
+rate_hz = 1000
+precision = "f32"
+
+[model]
+kind = "layered_block"
+nx = 10
+nz = 6
+spacing = 0.01
+muscle_rows = 2
+fat_rows = 2
+skin_rows = 1
+density = 1000.0
+skin = {{ law = "bilinear", k1 = 30000.0, k2 = 300000.0, turn_strain = 1e-6, damping = 0.02 }}
+fat = {{ law = "linear", k = 30.0, damping = 0.01 }}
+muscle = {{ law = "bilinear", k1 = 150.0, k2 = 1500.0, turn_strain = 0.4, damping = 0.02 }}
+
+[solver]
+integrator = "implicit_factored"
+threads = 2
+
+[solver.multirate]
+centre = [0.05, 0.05, 0.03]
+radius = 0.05
+ratio = {ratio}
+
+[effects]
+gravity = [0.0, -9.81, 0.0]
+viscous_damping = 2.0
+spring_damping = true
+bone = true
+guard = true
+
+[[effects.handles]]
+node = 335
+target = [0.05, 0.06, 0.03]
+stiffness = 50.0
+damping = 0.0
+"#
+    )
+}
+
+#[test]
+fn failing_multirate_coupling_is_reported_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch("reports_coupling");
+    for ratio in [8, 2] {
+        let (scene_file, report) = (dir.join(format!("block_{ratio}.toml")), dir.join(format!("report_{ratio}.json")));
+        std::fs::write(&scene_file, stiff_skin_block(ratio)).unwrap();
+        let out = Command::new(workspace_bin("lamina"))
+            .args(["run", "--no-publish", "--seconds", "2", "--scene"])
+            .arg(&scene_file)
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .expect("running lamina run");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let warned = stdout.contains("warning: the multirate region and bulk drew up to");
+        let gap = read_json(&report)["multirate"]["coupling_gap_max_m"].as_f64().expect("a multirate report");
+        if ratio == 8 {
+            assert!(warned && gap > 5e-3, "ratio 8: gap {gap} m, output:\n{stdout}");
+        } else {
+            assert!(!warned && gap < 1e-3, "ratio 2: gap {gap} m, output:\n{stdout}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
