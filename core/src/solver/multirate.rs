@@ -865,7 +865,7 @@ fn bulk_loop<T: Real>(
         gather(&state.x, outer, &mut packet.outer_x);
         gather(&state.v, outer, &mut packet.outer_v);
         gather(&state.x, overlap, &mut packet.overlap_x);
-        packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite();
+        packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite() && packet.overlap_x.all_finite();
         packet.step_ns = start.elapsed().as_nanos() as u64;
         (packet.recentre_refused, packet.build_ns) = (false, 0);
         if let Some((result, build_ns)) = built.take() {
