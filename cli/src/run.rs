@@ -18,11 +18,13 @@ use std::sync::atomic::AtomicBool;
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
-/// A multirate coupling gap above this (m) is reported as a failing coupling: on the stability
-/// suite's sweep every run in which the coupling kept an oscillation going showed a gap of
-/// 2.6 mm or more, every other 0.8 mm or less, and the shipped limbs pressed and slid 0.25 mm
-/// at most (docs/accuracy-and-stability.md).
-const COUPLING_GAP_WARNING_M: f64 = 1e-3;
+/// A multirate coupling gap above this (m) is reported as a failing coupling. On the stability
+/// suite's sweep every run in which the coupling kept an oscillation going showed 2.6-44 mm,
+/// every other 0.8 mm or less; the 96x24 limb with the tool sliding across it at 2 cm/s at
+/// ratio 20 showed up to 2.1 mm with the coupling holding (the force within 1.5 % of the
+/// single-rate solver's). Between 2.1 and 2.6 mm the two overlap; above 3 mm only failures
+/// were seen (docs/accuracy-and-stability.md).
+const COUPLING_GAP_WARNING_M: f64 = 3e-3;
 
 /// Options of `lamina run`.
 pub struct RunOptions {

@@ -464,8 +464,8 @@ pub struct MultirateStatus {
     pub bulk_stopped: bool,
     /// At the last exchange, the largest distance between where the bulk and where the
     /// region put a node both step (the overlap, near the region's edge), m. Hundredths of a
-    /// millimetre while the two halves agree; millimetres and more where the coupling fails
-    /// (docs/accuracy-and-stability.md).
+    /// millimetre at rest, up to about 2 mm with the tool sliding at a large ratio, 2.6 mm to
+    /// centimetres where the coupling fails (docs/accuracy-and-stability.md).
     pub coupling_gap_m: f64,
     /// The largest [`coupling_gap_m`](Self::coupling_gap_m) so far, m.
     pub coupling_gap_max_m: f64,
