@@ -39,6 +39,7 @@
 use super::dynamics::State;
 use super::effects::{DragHandle, Effects, PointLoad, SphereTool};
 use super::vec3s::Vec3s;
+use crate::generator::vec3::distance;
 use crate::model::{Model, NodeKind};
 use crate::real::Real;
 use crossbeam::queue::ArrayQueue;
@@ -527,10 +528,6 @@ fn copy_nodes<T: Real>(from: &Vec3s<T>, from_nodes: &[u32], to: &mut Vec3s<T>, t
             dst[t as usize] = src[f as usize];
         }
     }
-}
-
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
 }
 
 impl<T: Real> Multirate<T> {

@@ -7,6 +7,7 @@
 
 use super::energy::mechanical_energy;
 use super::stability::{StabilityCase, multirate_settings};
+use crate::generator::vec3::distance;
 use crate::solver::{IntegrationParameters, IntegratorKind, MultirateSettings, Simulation};
 use serde::Serialize;
 
@@ -55,7 +56,6 @@ pub fn coupling_sweep(case: &StabilityCase, radii: &[f64], ratios: &[u32], secon
     let mut kinetic = vec![0.0f64; runs.len()];
     let mut gap = vec![0.0f64; runs.len()];
     let (mut single_kinetic, mut single_displacement) = (0.0f64, 0.0f64);
-    let distance = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
     for frame in 0..frames {
         single.step();
         let xs = &single.state().x;
