@@ -19,12 +19,22 @@ use std::sync::atomic::AtomicBool;
 static STOP: AtomicBool = AtomicBool::new(false);
 
 /// A multirate coupling gap above this (m) is reported as a failing coupling. On the stability
-/// suite's sweep every run in which the coupling kept an oscillation going showed 2.6-44 mm,
-/// every other 0.8 mm or less; the 96x24 limb with the tool sliding across it at 2 cm/s at
-/// ratio 20 showed up to 2.1 mm with the coupling holding (the force within 1.5 % of the
-/// single-rate solver's). Between 2.1 and 2.6 mm the two overlap; above 3 mm only failures
-/// were seen (docs/accuracy-and-stability.md).
+/// suite's sweep the runs that kept an oscillation going (a region covering nearly the whole
+/// block at ratio 20) showed 2.9-3.2 mm, every other 0.22 mm or less; the 96x24 limb with the
+/// tool sliding across it at 2 cm/s at ratio 20 shows up to 2.1 mm with the coupling holding,
+/// the 160x40 limb with a bulk too slow for its step 6-8 mm (docs/accuracy-and-stability.md).
 const COUPLING_GAP_WARNING_M: f64 = 3e-3;
+
+/// The warning `lamina run` prints for a multirate coupling that drew the two halves more
+/// than [`COUPLING_GAP_WARNING_M`] apart, if it did.
+fn coupling_warning(m: &lamina_core::solver::MultirateStatus) -> Option<String> {
+    (m.coupling_gap_max_m > COUPLING_GAP_WARNING_M).then(|| {
+        format!(
+            "warning: the multirate region and bulk drew up to {:.1} mm apart at the region's edge: the coupling fails on this scene (a bounded oscillation there); a smaller [solver.multirate] ratio or radius, or a bulk step that keeps up, holds it (docs/accuracy-and-stability.md)",
+            m.coupling_gap_max_m * 1e3
+        )
+    })
+}
 
 /// Options of `lamina run`.
 pub struct RunOptions {
@@ -376,8 +386,9 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
             m.refused
         );
         println!(
-            "multirate region: moved with the tool {} time(s) (longest build {:.1} us, on the bulk's thread), {} region(s) about the tool refused; now {} nodes about ({:.3}, {:.3}, {:.3}) m",
+            "multirate region: moved with the tool {} time(s) (taken {} exchanges after asking; longest build {:.1} us, on a thread of its own), {} region(s) about the tool refused; now {} nodes about ({:.3}, {:.3}, {:.3}) m",
             m.recentres,
+            m.build_exchanges,
             m.recentre_build_max_ns as f64 / 1e3,
             m.recentres_refused,
             m.region_nodes,
@@ -390,11 +401,8 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
             m.coupling_gap_m * 1e3,
             m.coupling_gap_max_m * 1e3
         );
-        if m.coupling_gap_max_m > COUPLING_GAP_WARNING_M {
-            println!(
-                "warning: the multirate region and bulk drew up to {:.1} mm apart at the region's edge: the coupling fails on this scene (a bounded oscillation there); a smaller [solver.multirate] ratio holds it (docs/accuracy-and-stability.md)",
-                m.coupling_gap_max_m * 1e3
-            );
+        if let Some(warning) = coupling_warning(&m) {
+            println!("{warning}");
         }
         if m.bulk_stopped {
             println!(
@@ -488,5 +496,19 @@ fn integrator_reason<T: Real>(sim: &Simulation<T>, rate_hz: u32) -> String {
              per tick (docs/solvers.md)"
         ),
         other => format!("integrator: {other} as the scene asks (docs/solvers.md compares the choices)"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lamina_core::solver::MultirateStatus;
+
+    #[test]
+    fn coupling_warning_names_a_gap_above_three_millimetres_works() {
+        let at = |gap| coupling_warning(&MultirateStatus { coupling_gap_max_m: gap, ..MultirateStatus::default() });
+        assert_eq!(at(2.1e-3), None);
+        let warning = at(6.4e-3).expect("a 6.4 mm gap is warned of");
+        assert!(warning.contains("6.4 mm apart"), "{warning}");
     }
 }

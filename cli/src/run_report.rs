@@ -110,6 +110,7 @@ impl RunContext {
                 "recentres": m.recentres,
                 "recentres_refused": m.recentres_refused,
                 "recentre_build_max_us": m.recentre_build_max_ns as f64 / 1e3,
+                "build_exchanges": m.build_exchanges,
                 "coupling_gap_m": m.coupling_gap_m,
                 "coupling_gap_max_m": m.coupling_gap_max_m,
                 "bulk_stopped": m.bulk_stopped,

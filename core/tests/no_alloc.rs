@@ -1,6 +1,7 @@
 //! The step loop allocates nothing after warm-up: a counting global allocator watches 1000
 //! frames of every integrator (and multirate stepping, whose bulk thread is counted too; with
-//! the tool sliding, only the stepping thread, as the bulk's builds the regions), on
+//! the tool sliding, only the stepping thread, as regions and their bulks are built on a thread
+//! of their own and the bulk's drops the ones replaced), on
 //! one thread and on two, with every effect on, through
 //! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
 //! One busy thread per CPU spins beside the step throughout, so the solver's workers are
@@ -13,7 +14,7 @@
 
 use lamina_core::scene::Scene;
 use lamina_core::solver::{
-    DragHandle, GuardSettings, IntegratorKind, MultirateSettings, PointLoad, Simulation, SphereTool,
+    DragHandle, GuardSettings, IntegratorKind, LateBuild, MultirateSettings, PointLoad, Simulation, SphereTool,
 };
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -150,7 +151,11 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
         let mut params = scene.solver.clone();
         params.integrator = IntegratorKind::ImplicitFactored;
         params.threads = threads;
-        params.multirate = Some(MultirateSettings { centre, radius: 0.05, ratio: 4, follow_tool: true });
+        // Regions about the tool waited for 8 exchanges after asking: the spinning threads
+        // leave the builder's lowest priority little time, and the moves must happen.
+        let settings = MultirateSettings { centre, radius: 0.05, ratio: 4, ..MultirateSettings::default() };
+        let settings = MultirateSettings { build_exchanges: Some(8), late_build: LateBuild::Wait, ..settings };
+        params.multirate = Some(settings);
         let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
         let what = format!("multirate with {threads} thread(s), the tool sliding {slide:?} m");
         step_counted_sliding(&mut sim, nearest, &what, slide);

@@ -2,9 +2,7 @@
 //! stepping, stays finite and bounded and never holds more energy than was put in.
 
 use lamina_core::solver::IntegratorKind;
-use lamina_core::study::{
-    MULTIRATE_ROW, StabilityCase, StabilityRow, coupling_sweep, run_case, run_case_multirate, stability_cases,
-};
+use lamina_core::study::{StabilityCase, StabilityRow, coupling_sweep, run_case, run_case_multirate, stability_cases};
 
 /// The case's row with every integrator, then with multirate stepping.
 fn rows(case: &StabilityCase) -> impl Iterator<Item = StabilityRow> + '_ {
@@ -51,18 +49,14 @@ fn check_ratio(name: &str, ratio: f64, energy_bounded: fn(&str) -> bool) {
     }
 }
 
-// Multirate stepping stays finite and bounded in the stiffness-ratio cases but is not held to
-// the energy bound: every exchange moves the region's ring to the bulk's state in one jump, and
-// with skin 10^4-10^6 times stiffer than fat the jump loads the ring's skin springs (energy
-// excess 0.30, 0.80 and 0.98 of the energy scale at 1e4, 1e5 and 1e6; 3 cm region, ratio 8).
 #[test]
 fn stiffness_ratio_1e4_stays_stable_works() {
-    check_ratio("stiffness_ratio_1e4", 1e4, |k| k != MULTIRATE_ROW);
+    check_ratio("stiffness_ratio_1e4", 1e4, |_| true);
 }
 
 #[test]
 fn stiffness_ratio_1e5_stays_stable_works() {
-    check_ratio("stiffness_ratio_1e5", 1e5, |k| k != MULTIRATE_ROW);
+    check_ratio("stiffness_ratio_1e5", 1e5, |_| true);
 }
 
 #[test]
@@ -72,7 +66,6 @@ fn stiffness_ratio_1e6_stays_stable_works() {
     // point near rest, and stay bounded; RK4 and the implicit schemes do not.
     check_ratio("stiffness_ratio_1e6", 1e6, |k| {
         !matches!(IntegratorKind::parse(k), Some(IntegratorKind::SymplecticEuler | IntegratorKind::VelocityVerlet))
-            && k != MULTIRATE_ROW
     });
 }
 
@@ -160,44 +153,55 @@ fn sudden_large_load_stays_stable_works() {
     check("sudden_large_load");
 }
 
-/// Multirate stepping beside single-rate `implicit_factored` where its coupling holds (the
-/// region's radius swept over 2.5-5 cm of the 9 x 5 cm block): a sudden load at ratio 8, and
-/// skin 10^4 times stiffer than fat at ratio 2. At ratio 8 and 20 the stiff skin keeps the two
-/// halves apart (`lamina study stability`, docs/accuracy-and-stability.md).
+/// Multirate stepping beside single-rate `implicit_factored` (the region's radius swept over
+/// 2.5-4.5 cm of the 9 x 5 cm block, 2 s): a sudden load follows it closely; skin 10^4 times
+/// stiffer than fat lags it (the bulk holds the region's core and the region the bulk's ring,
+/// and the stiff sheet across both moves only as fast as the exchanges pass it on) but never
+/// oscillates or overshoots, and settles where it does.
 #[test]
-fn multirate_follows_single_rate_where_its_coupling_holds_works() {
+fn multirate_follows_single_rate_in_the_hard_cases_works() {
     let cases = stability_cases();
     let case = |name| cases.iter().find(|c| c.name == name).expect("case exists");
-    let radii = [0.025, 0.03, 0.035, 0.04, 0.045, 0.05];
-    // Measured (f32, 2 s): the sudden load within 1.1e-4 m of single-rate (its largest
-    // displacement 1.4e-2 m), kinetic energy at most 2.1e-7 J; the stiff skin within 5.7e-4 m,
-    // at most 5.9e-6 J. Where the coupling fails, 1e-3 to 0.3 J and up to 0.12 m.
+    let radii = [0.025, 0.03, 0.035, 0.04, 0.045];
+    // Measured (f32, 2 s): the sudden load within 7.1e-5 m of single-rate at ratio 8 (its
+    // largest displacement 1.4e-2 m), kinetic energy at most 2.8e-7 J.
     for row in coupling_sweep(case("sudden_large_load"), &radii, &[8], 2.0) {
-        assert!(row.late_deviation_m < 0.02 * row.single_max_displacement_m, "{row:?}");
+        assert!(row.late_deviation_m < 0.01 * row.single_max_displacement_m, "{row:?}");
         assert!(row.late_kinetic_j < 1e-6, "{row:?}");
-    }
-    for row in coupling_sweep(case("stiffness_ratio_1e4"), &radii, &[2], 2.0) {
-        assert!(row.late_deviation_m < 1e-3, "{row:?}");
-        assert!(row.late_kinetic_j < 1e-4, "{row:?}");
         assert!(row.late_coupling_gap_m < 1e-4, "{row:?}");
     }
+    // The stiff skin at ratio 2, 8 and 20: kinetic energy at most 2.9e-7 J (single-rate
+    // 4.1e-7 J), the two halves within 2.4e-5 m where both step, 3.3-6.9e-4 m behind
+    // single-rate, whose largest displacement is 1.3e-3 m.
+    let stiff = coupling_sweep(case("stiffness_ratio_1e4"), &radii, &[2, 8, 20], 2.0);
+    for row in &stiff {
+        assert!(row.late_kinetic_j < row.single_late_kinetic_j.max(1e-6), "{row:?}");
+        assert!(row.late_coupling_gap_m < 1e-4, "{row:?}");
+        assert!(row.late_deviation_m < 0.6 * row.single_max_displacement_m, "{row:?}");
+    }
+    // Held longer, the lag closes toward where the pull balances the tissue (measured: 5.7e-4 m
+    // behind over the second second, 3.0e-4 m over the last five of ten).
+    let two_s = stiff.iter().find(|r| r.radius_m == 0.03 && r.ratio == 8).expect("swept");
+    let ten_s = &coupling_sweep(case("stiffness_ratio_1e4"), &[0.03], &[8], 10.0)[0];
+    assert!(ten_s.late_deviation_m < 0.7 * two_s.late_deviation_m, "{two_s:?} then {ten_s:?}");
 }
 
-/// Where the coupling fails, the run says so: the 10^4 skin at ratio 8, whose deviation from
-/// single-rate `implicit_factored` reaches centimetres from a 4 cm region up, reports a coupling
-/// gap (the two halves' distance apart where both step, known to the run without a
-/// single-rate run beside it) above 1 mm exactly there, and below it where the deviation stays
-/// within 3 mm (measured: 5.2-27 mm against 0.09-0.21 mm).
+/// Where the coupling fails, the run says so: a region covering nearly all of the block (5 cm
+/// of its 9 x 5 cm) at ratio 20 leaves a thin band to the bulk and oscillates, millimetres from
+/// single-rate `implicit_factored`; its coupling gap (the two halves' distance apart where both
+/// step, known to the run without a single-rate run beside it) is above 1 mm exactly there,
+/// and below it in the rows that follow single-rate.
 #[test]
 fn multirate_coupling_gap_flags_a_failing_coupling_works() {
     let cases = stability_cases();
-    let case = cases.iter().find(|c| c.name == "stiffness_ratio_1e4").expect("case exists");
-    let rows = coupling_sweep(case, &[0.025, 0.03, 0.035, 0.04, 0.045, 0.05], &[8], 2.0);
-    assert!(rows.iter().any(|r| r.late_deviation_m > 0.01), "the sweep holds a failing coupling: {rows:?}");
+    let case = |name| cases.iter().find(|c| c.name == name).expect("case exists");
+    let mut rows = coupling_sweep(case("sudden_large_load"), &[0.045, 0.05], &[8, 20], 2.0);
+    rows.extend(coupling_sweep(case("stiffness_ratio_1e4"), &[0.045, 0.05], &[8, 20], 2.0));
+    assert!(rows.iter().any(|r| r.late_deviation_m > 2e-3), "the sweep holds a failing coupling: {rows:?}");
     for row in &rows {
-        if row.late_deviation_m > 0.01 {
+        if row.late_deviation_m > 2e-3 {
             assert!(row.late_coupling_gap_m > 1e-3, "a failing coupling unflagged: {row:?}");
-        } else if row.late_deviation_m < 3e-3 {
+        } else if row.late_deviation_m < 1e-3 {
             assert!(row.late_coupling_gap_m < 1e-3, "a holding coupling flagged: {row:?}");
         }
     }

@@ -223,11 +223,9 @@ fn multirate_run_reports_its_coupling_works() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A scene on which the multirate coupling fails: a 10 x 6 cm block whose skin is 10^4 times
-/// stiffer than its fat in its stiff phase, pulled up at the centre of its top by a handle, a
-/// 5 cm region about it. At ratio 8 the region's edge swings (the stability suite's
-/// `stiffness_ratio_1e4`, centimetres from the single-rate solver there) and `lamina run`
-/// says so; at ratio 2 the coupling holds and it does not.
+/// The stability suite's hardest case for the multirate coupling as a scene: a 10 x 6 cm block
+/// whose skin is 10^4 times stiffer than its fat in its stiff phase, pulled up at the centre
+/// of its top by a handle, a 5 cm region about it.
 fn stiff_skin_block(ratio: u32) -> String {
     format!(
         r#"name = "stiff-skin-block"
@@ -272,8 +270,11 @@ damping = 0.0
     )
 }
 
+/// The stiff skin's coupling holds through `lamina run` at ratio 8 and 2: the two halves stay
+/// within a millimetre where both step (measured 0.08 and 0.06 mm) and no warning is printed
+/// (a bulk that stepped the region's core too swung centimetres here at ratio 8).
 #[test]
-fn failing_multirate_coupling_is_reported_works() {
+fn stiff_skin_multirate_coupling_holds_in_lamina_run_works() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = scratch("reports_coupling");
     for ratio in [8, 2] {
@@ -290,11 +291,7 @@ fn failing_multirate_coupling_is_reported_works() {
         let stdout = String::from_utf8_lossy(&out.stdout);
         let warned = stdout.contains("warning: the multirate region and bulk drew up to");
         let gap = read_json(&report)["multirate"]["coupling_gap_max_m"].as_f64().expect("a multirate report");
-        if ratio == 8 {
-            assert!(warned && gap > 5e-3, "ratio 8: gap {gap} m, output:\n{stdout}");
-        } else {
-            assert!(!warned && gap < 1e-3, "ratio 2: gap {gap} m, output:\n{stdout}");
-        }
+        assert!(!warned && gap < 1e-3, "ratio {ratio}: gap {gap} m, output:\n{stdout}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

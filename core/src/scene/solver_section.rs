@@ -3,7 +3,8 @@
 
 use super::section::{FieldError, finite3, non_negative};
 use crate::solver::{
-    IntegrationParameters, IntegratorKind, MAX_MULTIRATE_RATIO, MultirateSettings, SimdLevel, Substeps,
+    IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings,
+    SimdLevel, Substeps,
 };
 use serde::Deserialize;
 
@@ -33,6 +34,8 @@ pub(super) struct RawMultirate {
     radius: Option<f64>,
     ratio: Option<u32>,
     follow_tool: Option<bool>,
+    build_exchanges: Option<u32>,
+    late_build: Option<String>,
 }
 
 /// The `[solver]` table over the defaults, with `dt = 1 / rate_hz`. A `[solver.multirate]`
@@ -133,6 +136,21 @@ fn multirate_settings(raw: RawMultirate, tool_centre: Option<[f64; 3]>) -> Resul
     if let Some(f) = raw.follow_tool {
         out.follow_tool = f;
     }
+    if let Some(k) = raw.build_exchanges {
+        if !(2..=MAX_BUILD_EXCHANGES).contains(&k) {
+            return Err(FieldError::new(
+                "solver.multirate.build_exchanges",
+                format!("from 2 to {MAX_BUILD_EXCHANGES}"),
+            ));
+        }
+        out.build_exchanges = Some(k);
+    }
+    match raw.late_build.as_deref() {
+        None => {}
+        Some("defer") => out.late_build = LateBuild::Defer,
+        Some("wait") => out.late_build = LateBuild::Wait,
+        Some(_) => return Err(FieldError::new("solver.multirate.late_build", "\"defer\" or \"wait\"")),
+    }
     Ok(out)
 }
 
@@ -155,15 +173,13 @@ mod tests {
         assert_eq!(p.cg_tolerance, 1e-6);
         assert_eq!(parse("substeps = \"auto\"\n").unwrap().substeps, Substeps::Auto);
         assert_eq!(p.multirate, None);
-        let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\nfollow_tool = false\n";
+        let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\nfollow_tool = false\nbuild_exchanges = 12\nlate_build = \"wait\"\n";
         let m = parse(body).unwrap().multirate.expect("multirate on");
         assert_eq!((m.centre, m.radius, m.ratio, m.follow_tool), ([0.0, 0.1, 0.0], 0.02, 4, false));
+        assert_eq!((m.build_exchanges, m.late_build), (Some(12), LateBuild::Wait));
         // Without a centre, the tool's.
         let t = solver_parameters(toml::from_str("[multirate]\n").unwrap(), 1000, Some([1.0, 2.0, 3.0])).unwrap();
-        assert_eq!(
-            t.multirate,
-            Some(MultirateSettings { centre: [1.0, 2.0, 3.0], radius: 0.05, ratio: 8, follow_tool: true })
-        );
+        assert_eq!(t.multirate, Some(MultirateSettings { centre: [1.0, 2.0, 3.0], ..MultirateSettings::default() }));
     }
 
     #[test]
@@ -184,6 +200,8 @@ mod tests {
             ("[multirate]\ncentre = [0.0, nan, 0.0]\n", "solver.multirate.centre"),
             ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nradius = -0.02\n", "solver.multirate.radius"),
             ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nratio = 1\n", "solver.multirate.ratio"),
+            ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nbuild_exchanges = 1\n", "solver.multirate.build_exchanges"),
+            ("[multirate]\ncentre = [0.0, 0.0, 0.0]\nlate_build = \"never\"\n", "solver.multirate.late_build"),
         ];
         for (body, field) in cases {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");

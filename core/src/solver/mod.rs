@@ -40,7 +40,7 @@ pub use dynamics::{StageCounters, State};
 pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};
 pub use guard::{GuardEvent, GuardReason, Recovery};
 pub use implicit_factored::ImplicitFactored;
-pub use multirate::{MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus};
+pub use multirate::{LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus};
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
 pub use simulation::{GuardTotals, Simulation, SimulationBuildError};

@@ -16,18 +16,25 @@
 //!    the bulk thread is late, so the result never depends on timing); the ring holds it
 //!    until the next exchange;
 //! 2. the bulk takes the region's state at `T` for the region's core (its nodes more than
-//!    `OVERLAP_SPRINGS` spring from the edge; between core and ring the bulk keeps its own
-//!    values) and the tool where it is at `T`, and steps to `T + ratio · dt` while the region
-//!    ticks on.
+//!    `OVERLAP_SPRINGS` spring from the edge) and holds it there, as it holds bone, while it
+//!    steps the rest to `T + ratio · dt` with the tool where it is at `T` (between core and
+//!    ring both halves step the nodes, each its own way); the region ticks on meanwhile.
 //!
-//! When the tool has moved a quarter of the radius from the region's centre, the bulk's thread
-//! builds a region about it between two of its steps ([`MultirateSettings::follow_tool`]); the
-//! caller's thread takes it two exchanges after asking, swapping the region's simulation for
-//! the new one without allocating.
+//! Neither half steps what the other holds: a bulk that stepped the core too, on its long
+//! step, oscillated at the region's edge with skin 10^4 times stiffer than fat, centimetres
+//! from the single-rate solver. Held, it cannot; a stiff sheet spanning both halves then
+//! moves only as fast as the exchanges pass it on, and lags the single-rate solver until it
+//! settles (docs/accuracy-and-stability.md).
+//!
+//! When the tool has moved a quarter of the radius from the region's centre, a region about
+//! it and the bulk holding its core (a factorisation of the whole model) are built on a thread
+//! of the lowest priority ([`MultirateSettings::follow_tool`]); the caller's thread takes the
+//! region [`MultirateSettings::build_exchanges`] exchanges after asking, swapping the region's
+//! simulation for the new one without allocating, and the bulk's thread its bulk.
 //!
 //! The bulk feels the tool at its own rate; the tool's force is the region's, every tick. At
 //! rest both halves are exact, and a held press reaches the single-rate equilibrium (the
-//! default limb pressed 8 mm at ratio 8: the force within 0.5 %, every node within 0.07 mm,
+//! default limb pressed 8 mm at ratio 8: the force within 0.05 %, every node within 0.07 mm,
 //! `core/tests/multirate.rs`).
 //!
 //! Only the region feels grasps and effects changed through
@@ -90,11 +97,46 @@ pub struct MultirateSettings {
     /// The bulk takes one step per this many ticks, 2 to [`MAX_MULTIRATE_RATIO`]. Default 8.
     pub ratio: u32,
     /// Whether the region moves with the tool: once the tool's centre is more than a quarter
-    /// of `radius` from the region's centre at an exchange, a region about it is built on the
-    /// bulk's thread after its step (off the loop's thread) and taken two exchanges later.
-    /// Default true.
+    /// of `radius` from the region's centre at an exchange, a region about it and the bulk
+    /// holding its core are built off the loop's thread and taken `build_exchanges` exchanges
+    /// later. Default true.
     pub follow_tool: bool,
+    /// Exchanges from asking for a region about the tool to taking it, 2 to
+    /// [`MAX_BUILD_EXCHANGES`]: the region and the bulk that holds its core are built in the
+    /// meantime on a thread of the lowest priority. Default `None`: three times the first
+    /// bulk's build time, in exchanges, at least 2 ([`MultirateStatus::build_exchanges`]);
+    /// set it (with [`LateBuild::Wait`]) for runs reproducible from one machine to another.
+    pub build_exchanges: Option<u32>,
+    /// What happens when a region's build is still under way `build_exchanges` exchanges
+    /// after asking. Default [`LateBuild::Defer`].
+    pub late_build: LateBuild,
 }
+
+/// What a region about the tool does when its build is late.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LateBuild {
+    /// Taken at the first exchange after it is done: the loop never waits for a build (on a
+    /// machine too loaded to build in time, the region trails the tool further). For
+    /// real-time runs.
+    #[default]
+    Defer,
+    /// Waited for (the loop waits with the bulk, counted in [`MultirateStatus::waits`]), so
+    /// a run's result never depends on the threads' timing. For studies and replays.
+    Wait,
+}
+
+impl LateBuild {
+    /// The scene file's name of it: `defer` or `wait`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LateBuild::Defer => "defer",
+            LateBuild::Wait => "wait",
+        }
+    }
+}
+
+/// Largest [`MultirateSettings::build_exchanges`].
+pub const MAX_BUILD_EXCHANGES: u32 = 100_000;
 
 /// The tool may move this fraction of the region's radius from its centre before a region
 /// about it is built.
@@ -112,7 +154,14 @@ pub const MAX_MULTIRATE_RATIO: u32 = 1000;
 
 impl Default for MultirateSettings {
     fn default() -> Self {
-        Self { centre: [0.0; 3], radius: 0.05, ratio: 8, follow_tool: true }
+        Self {
+            centre: [0.0; 3],
+            radius: 0.05,
+            ratio: 8,
+            follow_tool: true,
+            build_exchanges: None,
+            late_build: LateBuild::Defer,
+        }
     }
 }
 
@@ -230,6 +279,22 @@ impl Partition {
     }
 }
 
+impl Partition {
+    /// The bulk's model: the whole model with the region's core held (as bone is), its
+    /// positions and velocities set from the region's at every exchange. Holding the core
+    /// keeps the bulk from stepping, on its long step, the nodes the region steps on its
+    /// short one: with skin 10^4 times stiffer than fat, a bulk stepping them too oscillates
+    /// at the region's edge and drifts centimetres from the single-rate solver.
+    pub fn bulk_model(&self, model: &Model) -> Model {
+        let mut bulk = model.clone();
+        for &i in &self.core {
+            bulk.nodes.kind[i as usize] = NodeKind::Fixed;
+        }
+        bulk.name = format!("{} (multirate bulk)", model.name);
+        bulk
+    }
+}
+
 /// `marked` grown `springs` times along the model's springs: a node joins when a spring links
 /// it to a marked node.
 fn spread_along_springs(model: &Model, mut marked: Vec<bool>, springs: usize) -> Vec<bool> {
@@ -274,7 +339,7 @@ impl Partition {
 pub(crate) struct Layout {
     /// Centre of the region's sphere, m.
     centre: [f64; 3],
-    partition: Partition,
+    pub(crate) partition: Partition,
     /// The region's nodes, indices in the region's model (in [`Partition::inner`] order).
     inner_local: Vec<u32>,
     /// The region's core (what the bulk takes), indices in the region's model.
@@ -325,17 +390,22 @@ impl Layout {
     }
 }
 
-/// Builds regions about the tool on the bulk's thread, for a region that follows it.
+/// Builds regions about the tool, and the bulks that hold their cores, on a thread of low
+/// priority, for a region that follows it.
 pub(crate) struct RegionBuilder {
-    /// The whole model (its own copy, for the bulk's thread).
+    /// The whole model (its own copy, for the builder's thread).
     model: Model,
     /// The region's solver settings: the caller's on one thread, without multirate.
     params: super::IntegrationParameters,
+    /// The bulk's solver settings: the region's step times the ratio.
+    bulk_params: super::IntegrationParameters,
     /// The effects the simulation was built with, model node indices.
     effects: Effects,
     settings: MultirateSettings,
-    /// The first region's stiffest-mode estimate, reused by the regions built after it.
+    /// The first region's and the first bulk's stiffest-mode estimates, reused by those built
+    /// after them (the same tissue; `implicit_factored` has no critical step).
     known_stability: super::critical_step::StabilityEstimate,
+    known_bulk_stability: super::critical_step::StabilityEstimate,
 }
 
 /// A region built about a new centre, on its way to the loop's thread; on its way back, the
@@ -345,27 +415,53 @@ pub(crate) struct Relocation<T: Real> {
     pub(crate) region: super::Simulation<T>,
 }
 
+/// A region about a new centre and the bulk that holds its core: the region goes to the
+/// loop's thread, the bulk stays on the bulk's until the region is taken.
+pub(crate) struct Built<T: Real> {
+    relocation: Relocation<T>,
+    bulk: super::Simulation<T>,
+}
+
 impl RegionBuilder {
-    /// A builder with its own copy of `model`; `first` is the region built at start.
+    /// A builder with its own copy of `model`; `first` and `first_bulk` are the region and
+    /// the bulk built at start.
     pub fn new<T: Real>(
         model: &Model,
         params: super::IntegrationParameters,
+        bulk_params: super::IntegrationParameters,
         effects: Effects,
         settings: MultirateSettings,
-        first: &super::Simulation<T>,
+        (first, first_bulk): (&super::Simulation<T>, &super::Simulation<T>),
     ) -> Self {
-        Self { model: model.clone(), params, effects, settings, known_stability: first.stability() }
+        Self {
+            model: model.clone(),
+            params,
+            bulk_params,
+            effects,
+            settings,
+            known_stability: first.stability(),
+            known_bulk_stability: first_bulk.stability(),
+        }
     }
 
     /// The region about `centre` and its simulation at rest, its loads and handles lists
-    /// holding at least `capacity` (loads, handles) entries.
+    /// holding at least `capacity` (loads, handles) entries, and the bulk holding its core.
     pub fn build<T: Real>(
         &self,
         centre: [f64; 3],
         capacity: (usize, usize),
-    ) -> Result<Relocation<T>, super::SimulationBuildError> {
+    ) -> Result<Built<T>, super::SimulationBuildError> {
         let settings = MultirateSettings { centre, ..self.settings };
-        build_region(&self.model, &self.params, &self.effects, &settings, capacity, Some(self.known_stability))
+        let relocation =
+            build_region(&self.model, &self.params, &self.effects, &settings, capacity, Some(self.known_stability))?;
+        let bulk = build_bulk(
+            &self.model,
+            &relocation.layout.partition,
+            &self.bulk_params,
+            &self.effects,
+            Some(self.known_bulk_stability),
+        )?;
+        Ok(Built { relocation, bulk })
     }
 }
 
@@ -392,6 +488,18 @@ pub(crate) fn build_region<T: Real>(
     Ok(Relocation { layout, region })
 }
 
+/// The bulk's simulation of `model` at rest with `partition`'s core held
+/// ([`Partition::bulk_model`]); `params` the bulk's, `known` skips the stiffest-mode estimate.
+pub(crate) fn build_bulk<T: Real>(
+    model: &Model,
+    partition: &Partition,
+    params: &super::IntegrationParameters,
+    effects: &Effects,
+    known: Option<super::critical_step::StabilityEstimate>,
+) -> Result<super::Simulation<T>, super::SimulationBuildError> {
+    super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), effects.clone(), known)
+}
+
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.
 struct Packet<T: Real> {
     /// Time of the region's state, s.
@@ -409,7 +517,7 @@ struct Packet<T: Real> {
     tool: Option<SphereTool>,
     /// Compute time of the bulk's step that filled `outer_*`, ns.
     step_ns: u64,
-    /// Time the bulk took to build `relocation`, ns (0 without one).
+    /// Time the builder's thread took to build `relocation` and its bulk, ns (0 without one).
     build_ns: u64,
     /// Whether the bulk's state is finite (the bulk's guard, when on, keeps it so).
     finite: bool,
@@ -457,19 +565,24 @@ pub struct MultirateStatus {
     /// Regions about the tool that could not be built (the tool off the tissue, say): the
     /// region stayed where it was.
     pub recentres_refused: u64,
-    /// Longest time the bulk's thread took to build a region about the tool, ns (between two
-    /// of its steps: a build longer than `ratio` ticks less a step delays the next step).
+    /// Longest time the builder's thread took to build a region about the tool and the bulk
+    /// holding its core, ns (at the lowest priority: a build longer than
+    /// [`build_exchanges`](Self::build_exchanges) exchanges is waited for).
     pub recentre_build_max_ns: u64,
     /// The bulk thread has ended (only a panic in its step ends it early): the region goes
     /// on alone with the ring held where the bulk last left it.
     pub bulk_stopped: bool,
     /// At the last exchange, the largest distance between where the bulk and where the
     /// region put a node both step (the overlap, near the region's edge), m. Hundredths of a
-    /// millimetre at rest, up to about 2 mm with the tool sliding at a large ratio, 2.6 mm to
-    /// centimetres where the coupling fails (docs/accuracy-and-stability.md).
+    /// millimetre at rest, up to about 2 mm with the tool sliding at a large ratio, 3 mm and
+    /// more where the coupling oscillates (docs/accuracy-and-stability.md).
     pub coupling_gap_m: f64,
     /// The largest [`coupling_gap_m`](Self::coupling_gap_m) so far, m.
     pub coupling_gap_max_m: f64,
+    /// Exchanges from asking for a region about the tool to taking it
+    /// ([`MultirateSettings::build_exchanges`], or the one chosen from the first bulk's build
+    /// time).
+    pub build_exchanges: u32,
 }
 
 /// The region's side of the coupling: the partition, the whole model's state, the bulk's
@@ -537,13 +650,14 @@ impl<T: Real> Multirate<T> {
     /// caller's, in model node indices.
     pub fn start(
         model: &Model,
-        mut bulk: super::Simulation<T>,
+        bulk: super::Simulation<T>,
         layout: Layout,
         builder: Option<RegionBuilder>,
         settings: &MultirateSettings,
         effects: Effects,
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
+        let (build_exchanges, late_build) = (settings.build_exchanges.unwrap_or(2), settings.late_build);
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
         let free_count = free.iter().filter(|&&f| f).count();
@@ -576,7 +690,8 @@ impl<T: Real> Multirate<T> {
                 if let Some(cpu) = cpu {
                     core_affinity::set_for_current(cpu);
                 }
-                bulk_loop(&mut bulk, lists, builder.as_ref(), &to_bulk, &to_region, &quit);
+                let builder = builder.map(|b| (Arc::new(b), build_exchanges, late_build));
+                bulk_loop(bulk, lists, builder, &to_bulk, &to_region, &quit);
             })?
         };
         let status = MultirateStatus {
@@ -584,6 +699,7 @@ impl<T: Real> Multirate<T> {
             bulk_nodes: layout.partition.outer.len(),
             ratio: settings.ratio,
             centre: settings.centre,
+            build_exchanges,
             ..MultirateStatus::default()
         };
         Ok(Self {
@@ -819,21 +935,85 @@ fn largest_distance<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>, b_nodes: &[u32]) -> f64
     largest.sqrt()
 }
 
-/// The bulk thread: waits for the packet, takes the region's state and tool into the whole
-/// model's state, steps it, returns the bulk's nodes in the packet; builds a region about
-/// the tool when asked. `lists` are the node lists of the region's layout.
+/// A region and its bulk being built on the builder's thread, which returns them with its
+/// build time.
+type Building<T> = JoinHandle<(Result<Built<T>, super::SimulationBuildError>, Duration)>;
+
+/// The exchanges the bulk's thread takes to build a region and its bulk when one build of
+/// the bulk took `bulk_build`: three times that, in exchanges of `ratio · dt` seconds, at
+/// least 2 (the region's own step and the bulk's go on meanwhile on the same CPUs).
+pub(crate) fn auto_build_exchanges(bulk_build: Duration, dt: f64, ratio: u32) -> u32 {
+    let exchanges = (3.0 * bulk_build.as_secs_f64() / (dt * f64::from(ratio))).ceil();
+    exchanges.clamp(2.0, f64::from(MAX_BUILD_EXCHANGES)) as u32
+}
+
+/// Starts building the region about `centre` and its bulk on a thread of the lowest priority
+/// (`SCHED_IDLE` on Linux: it runs only when the bulk's and the loop's threads leave a CPU
+/// idle), so the build never delays a bulk step.
+fn start_build<T: Real>(
+    builder: &Arc<RegionBuilder>,
+    centre: [f64; 3],
+    capacity: (usize, usize),
+) -> Result<Building<T>, super::SimulationBuildError> {
+    let builder = Arc::clone(builder);
+    let thread = std::thread::Builder::new()
+        .name("lamina-region".into())
+        .spawn(move || {
+            lower_this_threads_priority();
+            let start = Instant::now();
+            let built = builder.build::<T>(centre, capacity);
+            (built, start.elapsed())
+        })
+        .map_err(|e| super::SimulationBuildError::Multirate(format!("starting the region builder's thread: {e}")))?;
+    Ok(thread)
+}
+
+/// Puts the calling thread in `SCHED_IDLE` and lets it run on every CPU (Linux; elsewhere a
+/// no-op). A thread spawned by the bulk's inherits its priority and its CPU, which the bulk
+/// keeps busy on a large model; at the lowest priority the builder takes only what the bulk
+/// and the loop leave idle on any CPU, and the loop's wake-up preempts it at once.
+fn lower_this_threads_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: sched_setscheduler and sched_setaffinity on the calling thread (pid 0) with a
+    // valid parameter and a CPU set built by the libc macros.
+    unsafe {
+        let param = libc::sched_param { sched_priority: 0 };
+        // Lowering a thread's own priority is always allowed; on failure it keeps the bulk's.
+        libc::sched_setscheduler(0, libc::SCHED_IDLE, &param);
+        let mut every: libc::cpu_set_t = std::mem::zeroed();
+        for cpu in core_affinity::get_core_ids().unwrap_or_default() {
+            libc::CPU_SET(cpu.id, &mut every);
+        }
+        // On failure it stays on the bulk's CPU.
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &every);
+    }
+}
+
+/// A region and its bulk built about the tool, waiting for the region to take them.
+struct Pending<T: Real> {
+    lists: BulkLists,
+    bulk: super::Simulation<T>,
+}
+
+/// The bulk thread: waits for the packet, takes the region's core and the tool into the
+/// whole model's state, steps it, returns the bulk's nodes in the packet; has a region about
+/// the tool and its bulk built when asked, returned `build_exchanges` exchanges after the
+/// asking packet (or, deferred, once done after that), and switches to that bulk when the
+/// region takes the region. `lists` are the node lists of the region's layout.
 fn bulk_loop<T: Real>(
-    bulk: &mut super::Simulation<T>,
+    mut bulk: super::Simulation<T>,
     mut lists: BulkLists,
-    builder: Option<&RegionBuilder>,
+    builder: Option<(Arc<RegionBuilder>, u32, LateBuild)>,
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
     quit: &AtomicBool,
 ) {
-    // The lists of a region built and sent, until the region says it took it.
-    let mut pending: Option<BulkLists> = None;
-    // A region built about the tool (or why not) and its build time, ns, for the next packet.
-    let mut built: Option<(Result<Relocation<T>, super::SimulationBuildError>, u64)> = None;
+    // The region built and sent, with its bulk, until the region says it took it.
+    let mut pending: Option<Pending<T>> = None;
+    // The build under way and the exchange whose packet returns it.
+    let mut building: Option<(Building<T>, u64)> = None;
+    // Packets taken so far.
+    let mut exchange = 0u64;
     loop {
         let Some(mut packet) = to_bulk.pop() else {
             if quit.load(Ordering::Acquire) {
@@ -842,15 +1022,23 @@ fn bulk_loop<T: Real>(
             std::thread::park_timeout(Duration::from_millis(100));
             continue;
         };
+        exchange += 1;
         let start = Instant::now();
-        // A region the loop replaced (or refused) is dropped here, off the loop's thread.
-        drop(packet.relocation.take());
+        // What the loop replaced or refused is dropped after the packet has gone back.
+        let mut retired_region = packet.relocation.take();
+        let mut retired_bulk = None;
         if std::mem::take(&mut packet.adopted)
             && let Some(next) = pending.take()
         {
-            lists = next;
+            // The region took the new region: the bulk holding its core goes on from the
+            // whole model's state here.
+            lists = next.lists;
+            let old = std::mem::replace(&mut bulk, next.bulk);
+            bulk.take_state_of(&old);
+            retired_bulk = Some(old);
         }
-        pending = None;
+        // A region sent and not taken (the bulk's state was refused) is dropped.
+        let unadopted = pending.take();
         let BulkLists { core, overlap, outer } = &lists;
         bulk.effects_mut().tool = packet.tool;
         let state = bulk.state_mut();
@@ -865,27 +1053,40 @@ fn bulk_loop<T: Real>(
         packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite() && packet.overlap_x.all_finite();
         packet.step_ns = start.elapsed().as_nanos() as u64;
         (packet.recentre_refused, packet.build_ns) = (false, 0);
-        if let Some((result, build_ns)) = built.take() {
-            packet.build_ns = build_ns;
+        // Due with this packet: waited for when late if the region is to take it at the same
+        // exchange in every run, else returned with the first packet after it is done.
+        let wait = builder.as_ref().is_some_and(|(_, _, late)| *late == LateBuild::Wait);
+        if building.as_ref().is_some_and(|(thread, due)| *due <= exchange && (wait || thread.is_finished()))
+            && let Some((thread, _)) = building.take()
+        {
+            let (result, took) = thread.join().unwrap_or_else(|_| {
+                let why = "the region builder's thread panicked".to_string();
+                (Err(super::SimulationBuildError::Multirate(why)), Duration::ZERO)
+            });
+            packet.build_ns = took.as_nanos() as u64;
             match result {
-                Ok(relocation) => {
-                    pending = Some(BulkLists::of(&relocation.layout.partition));
+                Ok(Built { relocation, bulk }) => {
+                    pending = Some(Pending { lists: BulkLists::of(&relocation.layout.partition), bulk });
                     packet.relocation = Some(Box::new(relocation));
                 }
                 Err(_) => packet.recentre_refused = true,
             }
         }
-        let request = packet.recentre.take().zip(builder);
+        let request = packet.recentre.take();
         let capacity = packet.effects_capacity;
+        if let Some((centre, (builder, build_exchanges, _))) = request.zip(builder.as_ref()) {
+            match start_build::<T>(builder, centre, capacity) {
+                // Asked with packet `exchange`, taken by the region at exchange
+                // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.
+                Ok(started) => building = Some((started, exchange + u64::from(*build_exchanges) - 1)),
+                // Answered as a region that could not be built, with the next packet.
+                Err(_) => packet.recentre_refused = true,
+            }
+        }
         if to_region.push(packet).is_err() || quit.load(Ordering::Acquire) {
             return;
         }
-        // Built while the region ticks on, between this bulk step and the next.
-        if let Some((centre, builder)) = request {
-            let start = Instant::now();
-            let result = builder.build::<T>(centre, capacity);
-            built = Some((result, start.elapsed().as_nanos() as u64));
-        }
+        drop((retired_region.take(), retired_bulk.take(), unadopted));
     }
 }
 

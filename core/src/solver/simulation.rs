@@ -20,7 +20,8 @@ use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
 use super::multirate::{
-    MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder, Relocation, build_region,
+    MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder, Relocation,
+    auto_build_exchanges, build_bulk, build_region,
 };
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
@@ -197,6 +198,9 @@ impl<T: Real> Simulation<T> {
         if !(2..=MAX_MULTIRATE_RATIO).contains(&settings.ratio) {
             return refuse(format!("ratio {} must be from 2 to {MAX_MULTIRATE_RATIO}", settings.ratio));
         }
+        if let Some(k) = settings.build_exchanges.filter(|k| !(2..=MAX_BUILD_EXCHANGES).contains(k)) {
+            return refuse(format!("build_exchanges {k} must be from 2 to {MAX_BUILD_EXCHANGES}"));
+        }
         if effects.bone_motion.is_some() {
             return refuse("moving bone is not coupled between the region and the bulk: remove bone_motion".into());
         }
@@ -210,10 +214,16 @@ impl<T: Real> Simulation<T> {
         let capacity = (effects.loads.capacity(), effects.handles.capacity());
         let Relocation { layout, region: mut sim } =
             build_region::<T>(model, &region_params, &effects, &settings, capacity, None)?;
+        let bulk_start = Instant::now();
+        let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, None)?;
+        let build_exchanges = settings
+            .build_exchanges
+            .unwrap_or_else(|| auto_build_exchanges(bulk_start.elapsed(), params.dt, settings.ratio));
+        let settings = MultirateSettings { build_exchanges: Some(build_exchanges), ..settings };
         // Only a region that follows the tool needs the builder's copy of the model.
-        let builder =
-            settings.follow_tool.then(|| RegionBuilder::new(model, region_params, effects.clone(), settings, &sim));
-        let bulk = Self::new_single_rate(model, bulk_params, effects.clone())?;
+        let builder = settings
+            .follow_tool
+            .then(|| RegionBuilder::new(model, region_params, bulk_params, effects.clone(), settings, (&sim, &bulk)));
         // Pinned workers go from the first CPU up and the loop to the last: the bulk takes the first.
         let cpu =
             if params.pin_workers { core_affinity::get_core_ids().and_then(|c| c.first().copied()) } else { None };
@@ -514,6 +524,14 @@ impl<T: Real> Simulation<T> {
             }
         }
         completed
+    }
+
+    /// Takes `other`'s state and guard snapshot (a simulation of the same nodes): a bulk built
+    /// for a new region goes on from the bulk it replaces. Allocates nothing.
+    pub(super) fn take_state_of(&mut self, other: &Self) {
+        self.state.copy_from(&other.state);
+        self.snapshot.copy_from(&other.snapshot);
+        self.verlet.valid_at = None;
     }
 
     /// Swaps the region's simulation parts (model, state, solver) with `other`'s; the

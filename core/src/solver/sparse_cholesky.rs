@@ -654,6 +654,19 @@ struct Packer<T> {
     longest: usize,
 }
 
+/// `Σ a[k] b[k]` in eight running sums (which the compiler vectorises).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [0.0f64; 8];
+    let (a8, b8) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = a8.remainder().iter().zip(b8.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in a8.zip(b8) {
+        for k in 0..8 {
+            sums[k] += x[k] * y[k];
+        }
+    }
+    sums.iter().sum::<f64>() + tail
+}
+
 impl<T: Real> Packer<T> {
     fn new() -> Self {
         Self { supernodes: Vec::new(), pattern: Vec::new(), values: Vec::new(), longest: 0 }
@@ -670,26 +683,31 @@ impl<T: Real> Packer<T> {
         entry: impl Fn(usize, usize) -> f64,
     ) -> Result<(), FactorBuildError> {
         let rows = below_rows.len();
+        // The supernode's entries, row-major: the diagonal block's rows, then those below.
+        let mut l = vec![0.0f64; (width + rows) * width];
+        for j in 0..width {
+            for i in j..width + rows {
+                l[i * width + j] = entry(i, j);
+            }
+        }
         // Inverse of the lower-triangular diagonal block (forward substitution per column
-        // of the identity, in f64), row-major.
+        // of the identity, in f64), column-major: each entry one contiguous dot product.
         let mut inv = vec![0.0f64; width * width];
         for col in 0..width {
             for i in col..width {
-                let mut s = if i == col { 1.0 } else { 0.0 };
-                for k in col..i {
-                    s -= entry(i, k) * inv[k * width + col];
-                }
-                inv[i * width + col] = s / entry(i, i);
+                let (l_row, inv_col) = (&l[i * width + col..i * width + i], &inv[col * width + col..col * width + i]);
+                let dot = dot(l_row, inv_col);
+                inv[col * width + i] = (if i == col { 1.0 } else { 0.0 } - dot) / l[i * width + i];
             }
         }
         if inv.iter().any(|v| !v.is_finite()) {
             return Err(FactorBuildError::NotPositiveDefinite);
         }
         let values = &mut self.values;
-        let inverse = Packed::pack::<T>(values, width, width, Shape::Lower, |i, j| inv[i * width + j]);
-        let below = Packed::pack::<T>(values, rows, width, Shape::Full, |r, j| entry(width + r, j));
-        let below_t = Packed::pack::<T>(values, width, rows, Shape::Full, |j, r| entry(width + r, j));
-        let inverse_t = Packed::pack::<T>(values, width, width, Shape::Upper, |j, i| inv[i * width + j]);
+        let inverse = Packed::pack::<T>(values, width, width, Shape::Lower, |i, j| inv[j * width + i]);
+        let below = Packed::pack::<T>(values, rows, width, Shape::Full, |r, j| l[(width + r) * width + j]);
+        let below_t = Packed::pack::<T>(values, width, rows, Shape::Full, |j, r| l[(width + r) * width + j]);
+        let inverse_t = Packed::pack::<T>(values, width, width, Shape::Upper, |j, i| inv[j * width + i]);
         self.supernodes.push(Supernode {
             first: first as u32,
             width: width as u32,

@@ -14,8 +14,8 @@ use crate::law::SpringLaw;
 use crate::model::{Layer, Model, NodeKind, Tissue};
 use crate::real::Real;
 use crate::solver::{
-    Effects, IntegrationParameters, IntegratorKind, MultirateSettings, Simulation, SimulationBuildError, SphereTool,
-    Substeps,
+    Effects, IntegrationParameters, IntegratorKind, LateBuild, MultirateSettings, Simulation, SimulationBuildError,
+    SphereTool, Substeps,
 };
 use serde::Serialize;
 use std::time::Instant;
@@ -377,8 +377,11 @@ pub fn accuracy_study(
         // Multirate stepping as `lamina run` runs it: the region about the press every 1 ms
         // frame, the whole model every 8, both with 2 PCG iterations. Models too coarse for a
         // region of this radius (no node a spring inside its edge) get no row.
-        let multirate =
-            MultirateSettings { centre: press.map_or([0.0; 3], |p| p.tool.start), ..MultirateSettings::default() };
+        let multirate = MultirateSettings {
+            centre: press.map_or([0.0; 3], |p| p.tool.start),
+            late_build: LateBuild::Wait,
+            ..MultirateSettings::default()
+        };
         let integrator = IntegratorKind::ImplicitFactored;
         let stepping =
             Stepping { integrator, dt: 1e-3, substeps: Substeps::Auto, pcg_iterations: 2, multirate: Some(multirate) };

@@ -10,7 +10,7 @@ use crate::law::{Bilinear, SpringLaw};
 use crate::model::Model;
 use crate::scene::{BlockSpec, LayerMaterial, layered_block};
 use crate::solver::{
-    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, MultirateSettings, PointLoad,
+    DragHandle, Effects, GuardSettings, IntegrationParameters, IntegratorKind, LateBuild, MultirateSettings, PointLoad,
     Simulation, SphereTool, Substeps,
 };
 use serde::Serialize;
@@ -270,7 +270,14 @@ pub const MULTIRATE_ROW: &str = "multirate";
 /// bulk one step per 8 frames.
 pub fn multirate_settings(model: &Model) -> MultirateSettings {
     let centre = model.nodes.position[top_centre(model) as usize];
-    MultirateSettings { centre, radius: 0.03, ratio: 8, follow_tool: true }
+    MultirateSettings {
+        centre,
+        radius: 0.03,
+        ratio: 8,
+        follow_tool: true,
+        build_exchanges: Some(4),
+        late_build: LateBuild::Wait,
+    }
 }
 
 /// Runs `case` with multirate stepping in `f32`: the region about the block's top centre
