@@ -29,8 +29,9 @@
 //! When the tool has moved a quarter of the radius from the region's centre, a region about
 //! it and the bulk holding its core (a factorisation of the whole model) are built on a thread
 //! of the lowest priority ([`MultirateSettings::follow_tool`]); the caller's thread takes the
-//! region [`MultirateSettings::build_exchanges`] exchanges after asking, swapping the region's
-//! simulation for the new one without allocating, and the bulk's thread its bulk.
+//! region at the first exchange [`MultirateSettings::build_exchanges`] after asking where it
+//! is built (or waits for it, [`LateBuild::Wait`]), swapping the region's simulation for the
+//! new one without allocating, and the bulk's thread its bulk.
 //!
 //! The bulk feels the tool at its own rate; the tool's force is the region's, every tick. At
 //! rest both halves are exact, and a held press reaches the single-rate equilibrium (the
@@ -103,9 +104,11 @@ pub struct MultirateSettings {
     pub follow_tool: bool,
     /// Exchanges from asking for a region about the tool to taking it, 2 to
     /// [`MAX_BUILD_EXCHANGES`]: the region and the bulk that holds its core are built in the
-    /// meantime on a thread of the lowest priority. Default `None`: three times the first
-    /// bulk's build time, in exchanges, at least 2 ([`MultirateStatus::build_exchanges`]);
-    /// set it (with [`LateBuild::Wait`]) for runs reproducible from one machine to another.
+    /// meantime on a thread of the lowest priority. Default `None`: with
+    /// [`LateBuild::Defer`] 2 (taken as soon as it is built), with [`LateBuild::Wait`] three
+    /// times the first bulk's build time in exchanges, at least 2
+    /// ([`MultirateStatus::build_exchanges`]); set it with `Wait` for runs reproducible from
+    /// one machine to another.
     pub build_exchanges: Option<u32>,
     /// What happens when a region's build is still under way `build_exchanges` exchanges
     /// after asking. Default [`LateBuild::Defer`].
@@ -793,7 +796,7 @@ impl<T: Real> Multirate<T> {
             self.refused_at = self.requested;
         }
         if packet.recentre_refused || relocation.is_some() || packet.relocation.is_some() {
-            // The bulk answered the request of two exchanges ago.
+            // The bulk answered the request outstanding.
             self.requested = None;
         }
         self.packet = Some(packet);
@@ -939,9 +942,9 @@ fn largest_distance<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>, b_nodes: &[u32]) -> f64
 /// build time.
 type Building<T> = JoinHandle<(Result<Built<T>, super::SimulationBuildError>, Duration)>;
 
-/// The exchanges the bulk's thread takes to build a region and its bulk when one build of
-/// the bulk took `bulk_build`: three times that, in exchanges of `ratio · dt` seconds, at
-/// least 2 (the region's own step and the bulk's go on meanwhile on the same CPUs).
+/// The exchanges to give the builder's thread for a region and its bulk, waited for, when one
+/// build of the bulk took `bulk_build`: three times that, in exchanges of `ratio · dt` seconds,
+/// at least 2 (the region's own step and the bulk's go on meanwhile on the same CPUs).
 pub(crate) fn auto_build_exchanges(bulk_build: Duration, dt: f64, ratio: u32) -> u32 {
     let exchanges = (3.0 * bulk_build.as_secs_f64() / (dt * f64::from(ratio))).ceil();
     exchanges.clamp(2.0, f64::from(MAX_BUILD_EXCHANGES)) as u32
