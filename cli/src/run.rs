@@ -312,7 +312,7 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     }
     if let (Some(m), Some(settings)) = (sim.multirate_status(), sim.params().multirate) {
         println!(
-            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own; the region {} (docs/solvers.md)",
+            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own, holding the region's core; the region {} (docs/solvers.md)",
             m.region_nodes,
             settings.radius * 1e3,
             settings.centre[0],
@@ -320,7 +320,15 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
             settings.centre[2],
             m.bulk_nodes,
             m.ratio,
-            if settings.follow_tool { "follows the tool" } else { "stays where it is" }
+            if !settings.follow_tool {
+                "stays where it is".to_string()
+            } else {
+                format!(
+                    "follows the tool, each region taken {} or more exchanges after asking (late builds: {})",
+                    m.build_exchanges,
+                    settings.late_build.name()
+                )
+            }
         );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
