@@ -1030,7 +1030,7 @@ fn bulk_loop<T: Real>(
         exchange += 1;
         let start = Instant::now();
         // What the loop replaced or refused is dropped after the packet has gone back.
-        let mut retired_region = packet.relocation.take();
+        let retired_region = packet.relocation.take();
         let mut retired_bulk = None;
         if std::mem::take(&mut packet.adopted)
             && let Some(next) = pending.take()
@@ -1084,14 +1084,14 @@ fn bulk_loop<T: Real>(
                 // Asked with packet `exchange`, taken by the region at exchange
                 // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.
                 Ok(started) => building = Some((started, exchange + u64::from(*build_exchanges) - 1)),
-                // Answered as a region that could not be built, with the next packet.
+                // Answered now, as a region that could not be built.
                 Err(_) => packet.recentre_refused = true,
             }
         }
         if to_region.push(packet).is_err() || quit.load(Ordering::Acquire) {
             return;
         }
-        drop((retired_region.take(), retired_bulk.take(), unadopted));
+        drop((retired_region, retired_bulk, unadopted));
     }
 }
 
