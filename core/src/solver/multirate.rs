@@ -404,6 +404,8 @@ pub(crate) struct RegionBuilder {
     bulk_params: super::IntegrationParameters,
     /// The effects the simulation was built with, model node indices.
     effects: Effects,
+    /// The coupling's settings, `build_exchanges` set (how long a build has, and whether a
+    /// late one is waited for).
     settings: MultirateSettings,
     /// The first region's and the first bulk's stiffest-mode estimates, reused by those built
     /// after them (the same tissue; `implicit_factored` has no critical step).
@@ -660,7 +662,7 @@ impl<T: Real> Multirate<T> {
         effects: Effects,
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
-        let (build_exchanges, late_build) = (settings.build_exchanges.unwrap_or(2), settings.late_build);
+        let build_exchanges = settings.build_exchanges.unwrap_or(2);
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
         let free_count = free.iter().filter(|&&f| f).count();
@@ -693,8 +695,7 @@ impl<T: Real> Multirate<T> {
                 if let Some(cpu) = cpu {
                     core_affinity::set_for_current(cpu);
                 }
-                let builder = builder.map(|b| (Arc::new(b), build_exchanges, late_build));
-                bulk_loop(bulk, lists, builder, &to_bulk, &to_region, &quit);
+                bulk_loop(bulk, lists, builder.map(Arc::new), &to_bulk, &to_region, &quit);
             })?
         };
         let status = MultirateStatus {
@@ -1008,7 +1009,7 @@ struct Pending<T: Real> {
 fn bulk_loop<T: Real>(
     mut bulk: super::Simulation<T>,
     mut lists: BulkLists,
-    builder: Option<(Arc<RegionBuilder>, u32, LateBuild)>,
+    builder: Option<Arc<RegionBuilder>>,
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
     quit: &AtomicBool,
@@ -1060,7 +1061,7 @@ fn bulk_loop<T: Real>(
         (packet.recentre_refused, packet.build_ns) = (false, 0);
         // Due with this packet: waited for when late if the region is to take it at the same
         // exchange in every run, else returned with the first packet after it is done.
-        let wait = builder.as_ref().is_some_and(|(_, _, late)| *late == LateBuild::Wait);
+        let wait = builder.as_ref().is_some_and(|b| b.settings.late_build == LateBuild::Wait);
         if building.as_ref().is_some_and(|(thread, due)| *due <= exchange && (wait || thread.is_finished()))
             && let Some((thread, _)) = building.take()
         {
@@ -1079,11 +1080,12 @@ fn bulk_loop<T: Real>(
         }
         let request = packet.recentre.take();
         let capacity = packet.effects_capacity;
-        if let Some((centre, (builder, build_exchanges, _))) = request.zip(builder.as_ref()) {
+        if let Some((centre, builder)) = request.zip(builder.as_ref()) {
+            let build_exchanges = builder.settings.build_exchanges.unwrap_or(2);
             match start_build::<T>(builder, centre, capacity) {
                 // Asked with packet `exchange`, taken by the region at exchange
                 // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.
-                Ok(started) => building = Some((started, exchange + u64::from(*build_exchanges) - 1)),
+                Ok(started) => building = Some((started, exchange + u64::from(build_exchanges) - 1)),
                 // Answered now, as a region that could not be built.
                 Err(_) => packet.recentre_refused = true,
             }
