@@ -2,6 +2,7 @@
 
 mod bench_capacity;
 mod bench_effects;
+mod bench_noise;
 mod bench_yardstick;
 mod demo;
 mod demo_script;
@@ -291,6 +292,34 @@ enum BenchCommand {
         #[arg(long, default_value = "capacity")]
         out: PathBuf,
     },
+    /// The machine's own deadline misses: the loop of `lamina run` (pinned, SCHED_FIFO, locked
+    /// memory, absolute deadlines) with fixed synthetic work in place of the physics, once per
+    /// sleep slice. Set a run's misses against these at the same compute per tick.
+    Noise {
+        /// Seconds per sleep slice.
+        #[arg(long, default_value_t = 20.0)]
+        seconds: f64,
+        /// Loop rate, Hz.
+        #[arg(long, default_value_t = 1000)]
+        rate_hz: u32,
+        /// Synthetic work per tick, µs (calibrated on the pinned CPU before the loop); less
+        /// than the period.
+        #[arg(long, default_value_t = 200.0)]
+        work_us: f64,
+        /// Buffer the work walks, KiB (1024: about one core's L2 cache).
+        #[arg(long, default_value_t = 1024)]
+        working_set_kib: usize,
+        /// Sleep slices compared, µs, comma-separated: 0 sleeps once per tick, N sleeps at
+        /// most N µs at a time (the scene's `[realtime] sleep_slice_us`, default 100).
+        #[arg(long, default_value = "0,100")]
+        sleep_slices_us: String,
+        /// CPU the loop is pinned to. Default: the last one available (as `lamina run`).
+        #[arg(long)]
+        cpu: Option<usize>,
+        /// SCHED_FIFO priority (0 leaves it); `lamina run`'s default is 80.
+        #[arg(long, default_value_t = 80)]
+        fifo_priority: i32,
+    },
     /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
     Yardstick {
         /// Comma-separated: small, medium, large, or NXxNYxNZ.
@@ -392,6 +421,18 @@ fn run(command: Command) -> Result<(), String> {
             };
             bench_capacity::bench(&opts)
         }
+        Command::Bench {
+            what:
+                BenchCommand::Noise { seconds, rate_hz, work_us, working_set_kib, sleep_slices_us, cpu, fifo_priority },
+        } => bench_noise::bench(&bench_noise::NoiseOptions {
+            seconds,
+            rate_hz,
+            work_us,
+            working_set_kib,
+            sleep_slices_us: parse_list(&sleep_slices_us, "sleep slice", |p| p.parse().ok())?,
+            cpu,
+            fifo_priority,
+        }),
         Command::Run {
             scene,
             seconds,

@@ -116,7 +116,8 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         OverrunChoice::Skip => OverrunPolicy::Skip,
         OverrunChoice::CatchUp => OverrunPolicy::CatchUp,
     };
-    let mut lp = FixedRateLoop::try_new(MonotonicClock::new(), scene.rate_hz, policy).map_err(|e| e.to_string())?;
+    let loop_clock = MonotonicClock::new().with_sleep_slice_ns(u64::from(scene.realtime.sleep_slice_us) * 1_000);
+    let mut lp = FixedRateLoop::try_new(loop_clock, scene.rate_hz, policy).map_err(|e| e.to_string())?;
     let mut config = MonitorConfig::for_period_ns(lp.period_ns());
     if let Some(b) = scene.realtime.budget_us {
         config = config.with_budget_ns((b * 1e3) as u64);
@@ -157,7 +158,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let mut out = std::io::stdout().lock();
     while elapsed_ns < total_ns {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
-        let clock = MonotonicClock::new();
+        let clock = loop_clock;
         let run = lp.run(RunLimit::duration_ns(chunk).and_stop_flag(&STOP), &mut monitor, |info| {
             if let Some(h) = publisher.as_mut().and_then(|p| p.haptic.as_mut()) {
                 h.before_step(&mut sim);
@@ -366,6 +367,12 @@ fn apply_realtime_setup(scene: &Scene) {
     }
     let setup = RealtimeSetup::apply(&request);
     print!("{setup}");
+    match scene.realtime.sleep_slice_us {
+        0 => println!("  between ticks   one sleep to the next tick ([realtime] sleep_slice_us = 0)"),
+        us => println!(
+            "  between ticks   sleeps of at most {us} µs, so a virtual CPU stays with its host ([realtime] sleep_slice_us)"
+        ),
+    }
 }
 
 /// Prints the per-frame stage costs and the physics summary (and the publishing and haptic

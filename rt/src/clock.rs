@@ -48,6 +48,17 @@ impl<C: Clock + ?Sized> Clock for &C {
 /// Default busy-spin window at the end of [`MonotonicClock::sleep_until`]: 50 µs, in ns.
 pub const DEFAULT_SPIN_NS: u64 = 50_000;
 
+/// Default longest single sleep of [`MonotonicClock::sleep_until`]: 100 µs, in ns.
+///
+/// On a virtual machine a CPU that stays idle longer than the host's halt-polling window
+/// (200 µs by default in KVM) is handed back to the host's scheduler, and waking it for the
+/// next tick can then take milliseconds. Waking every 100 µs keeps it inside the window.
+/// Measured on a 2-vCPU KVM guest, a pinned SCHED_FIFO loop computing 200 µs per 1 ms tick,
+/// 30 s: one sleep per tick, 7-46 ticks over 1 ms and wake-ups up to 2.8 ms late; sleeps of
+/// at most 100 µs, none over 1 ms and wake-ups at most 0.39 ms late
+/// (`docs/benchmarks.md`, `lamina bench noise`).
+pub const DEFAULT_SLEEP_SLICE_NS: u64 = 100_000;
+
 const NS_PER_S: u64 = 1_000_000_000;
 
 /// The real clock: `CLOCK_MONOTONIC`, read with `clock_gettime` (vDSO, no
@@ -55,19 +66,46 @@ const NS_PER_S: u64 = 1_000_000_000;
 ///
 /// [`sleep_until`](Clock::sleep_until) sleeps with
 /// `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` until `spin_ns` before
-/// the deadline, then busy-spins on `now()` for the rest. The absolute sleep
-/// means an interrupted or late sleep never shifts later deadlines; the spin
-/// hides the kernel's wake-up latency (typically 5-60 µs) at the cost of up
-/// to `spin_ns` of CPU per period.
+/// the deadline, in sleeps of at most `sleep_slice_ns` each, then busy-spins on
+/// `now()` for the rest. The absolute sleep means an interrupted or late sleep
+/// never shifts later deadlines; the spin hides the kernel's wake-up latency
+/// (typically 5-60 µs) at the cost of up to `spin_ns` of CPU per period; the
+/// slices keep a virtual CPU from being descheduled by its host while it waits
+/// ([`DEFAULT_SLEEP_SLICE_NS`]), at the cost of a wake-up per slice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MonotonicClock {
     spin_ns: u64,
+    sleep_slice_ns: u64,
 }
 
 impl MonotonicClock {
-    /// A monotonic clock with the default spin window, [`DEFAULT_SPIN_NS`] (50 µs).
+    /// A monotonic clock with the default spin window, [`DEFAULT_SPIN_NS`] (50 µs), and
+    /// sleep slice, [`DEFAULT_SLEEP_SLICE_NS`] (100 µs).
     pub const fn new() -> Self {
-        Self { spin_ns: DEFAULT_SPIN_NS }
+        Self { spin_ns: DEFAULT_SPIN_NS, sleep_slice_ns: DEFAULT_SLEEP_SLICE_NS }
+    }
+
+    /// Sets the longest single sleep, ns; `0` sleeps to the spin window in one call.
+    /// Default [`DEFAULT_SLEEP_SLICE_NS`].
+    ///
+    /// ```
+    /// use lamina_rt::{Clock, MonotonicClock};
+    ///
+    /// let clock = MonotonicClock::new().with_sleep_slice_ns(0);
+    /// let deadline = clock.now() + 300_000; // 0.3 ms from now
+    /// clock.sleep_until(deadline);
+    /// assert!(clock.now() >= deadline);
+    /// assert_eq!(clock.sleep_slice_ns(), 0);
+    /// ```
+    #[must_use]
+    pub const fn with_sleep_slice_ns(mut self, sleep_slice_ns: u64) -> Self {
+        self.sleep_slice_ns = sleep_slice_ns;
+        self
+    }
+
+    /// The longest single sleep, ns (`0`: one sleep).
+    pub const fn sleep_slice_ns(&self) -> u64 {
+        self.sleep_slice_ns
     }
 
     /// Sets the busy-spin window before each deadline, ns. `0` sleeps all the
@@ -145,8 +183,14 @@ impl Clock for MonotonicClock {
 
     fn sleep_until(&self, deadline_ns: u64) {
         let coarse = deadline_ns.saturating_sub(self.spin_ns);
-        if coarse > self.now() {
-            sleep_until_ns(coarse);
+        loop {
+            let now = self.now();
+            if now >= coarse {
+                break;
+            }
+            let until =
+                if self.sleep_slice_ns == 0 { coarse } else { coarse.min(now.saturating_add(self.sleep_slice_ns)) };
+            sleep_until_ns(until);
         }
         while self.now() < deadline_ns {
             std::hint::spin_loop();
@@ -272,5 +316,15 @@ mod tests {
         }
         // A deadline in the past returns at once without sleeping.
         clock.sleep_until(0);
+    }
+
+    #[test]
+    fn monotonic_clock_sliced_sleep_reaches_deadline_works() {
+        for slice_ns in [0, 10_000, 100_000, 5_000_000] {
+            let clock = MonotonicClock::new().with_sleep_slice_ns(slice_ns);
+            let deadline = clock.now() + 1_000_000;
+            clock.sleep_until(deadline);
+            assert!(clock.now() >= deadline, "slice {slice_ns} ns");
+        }
     }
 }

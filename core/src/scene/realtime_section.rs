@@ -25,7 +25,17 @@ pub struct RealtimeSettings {
     pub budget_us: Option<f64>,
     /// Overrun policy. Default skip.
     pub overrun: OverrunChoice,
+    /// Longest single sleep while the loop waits for its next tick, µs; `0` sleeps to the
+    /// tick in one call. Default 100: on a virtual machine a CPU idle for longer than the
+    /// host's halt-polling window (200 µs in KVM) can be woken milliseconds late.
+    pub sleep_slice_us: u32,
 }
+
+/// Default [`RealtimeSettings::sleep_slice_us`], µs.
+const DEFAULT_SLEEP_SLICE_US: u32 = 100;
+
+/// Largest [`RealtimeSettings::sleep_slice_us`], µs (one second).
+const MAX_SLEEP_SLICE_US: u32 = 1_000_000;
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -35,6 +45,7 @@ pub(super) struct RawRealtime {
     lock_memory: Option<bool>,
     budget_us: Option<f64>,
     overrun: Option<String>,
+    sleep_slice_us: Option<u32>,
 }
 
 /// The `[realtime]` table over the defaults.
@@ -53,12 +64,17 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
         Some(p) if (1..=99).contains(&p) => Some(p),
         Some(_) => return Err(FieldError::new("realtime.fifo_priority", "0 (off) or 1..=99")),
     };
+    let sleep_slice_us = r.sleep_slice_us.unwrap_or(DEFAULT_SLEEP_SLICE_US);
+    if !(sleep_slice_us == 0 || (10..=MAX_SLEEP_SLICE_US).contains(&sleep_slice_us)) {
+        return Err(FieldError::new("realtime.sleep_slice_us", "0 (one sleep) or 10..=1000000"));
+    }
     Ok(RealtimeSettings {
         cpu: r.cpu,
         fifo_priority,
         lock_memory: r.lock_memory.unwrap_or(true),
         budget_us: r.budget_us,
         overrun,
+        sleep_slice_us,
     })
 }
 
@@ -80,13 +96,14 @@ mod tests {
                 fifo_priority: Some(80),
                 lock_memory: true,
                 budget_us: None,
-                overrun: OverrunChoice::Skip
+                overrun: OverrunChoice::Skip,
+                sleep_slice_us: 100,
             }
         );
-        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\n")
+        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\n")
             .unwrap();
         assert_eq!((r.cpu, r.fifo_priority, r.lock_memory), (Some(1), None, false));
-        assert_eq!((r.budget_us, r.overrun), (Some(800.0), OverrunChoice::CatchUp));
+        assert_eq!((r.budget_us, r.overrun, r.sleep_slice_us), (Some(800.0), OverrunChoice::CatchUp, 0));
     }
 
     #[test]
@@ -95,6 +112,8 @@ mod tests {
             ("overrun = \"panic\"\n", "realtime.overrun"),
             ("budget_us = 0.0\n", "realtime.budget_us"),
             ("fifo_priority = 100\n", "realtime.fifo_priority"),
+            ("sleep_slice_us = 5\n", "realtime.sleep_slice_us"),
+            ("sleep_slice_us = 1000001\n", "realtime.sleep_slice_us"),
         ] {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");
         }

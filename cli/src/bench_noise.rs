@@ -1,0 +1,247 @@
+//! `lamina bench noise`: the machine's own deadline misses. The loop of `lamina run` (pinned,
+//! SCHED_FIFO, locked memory, absolute deadlines, the same deadline monitor) runs a fixed
+//! synthetic work in place of the physics, once per sleep slice, so the misses of a
+//! `lamina run` can be set against what the machine does to any loop of the same length.
+
+use super::machine;
+use lamina_rt::steal::StealSnapshot;
+use lamina_rt::{
+    DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest, RealtimeSetup,
+    RunLimit, available_cpus,
+};
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+/// Elements the work walks apart, f32s: one 64-byte cache line each.
+const STRIDE: usize = 16;
+
+/// A tick is slow when its work takes this many times the median.
+const SLOW_FACTOR: u64 = 3;
+
+/// Fast ticks a burst of slow ticks may contain and still count as one burst.
+const BURST_JOIN: usize = 3;
+
+/// Most ticks one sleep slice may run (each recorded, 40 bytes): an hour at 1 kHz.
+const MAX_TICKS: usize = 3_600_000;
+
+/// What `lamina bench noise` measures.
+pub struct NoiseOptions {
+    /// Seconds per sleep slice, (0, 3600].
+    pub seconds: f64,
+    /// Loop rate, Hz.
+    pub rate_hz: u32,
+    /// Synthetic work per tick, µs.
+    pub work_us: f64,
+    /// Buffer the work walks, KiB.
+    pub working_set_kib: usize,
+    /// Sleep slices compared, µs (0: one sleep per tick).
+    pub sleep_slices_us: Vec<u32>,
+    /// CPU the loop is pinned to; `None`: the last one available.
+    pub cpu: Option<usize>,
+    /// SCHED_FIFO priority, 0 for none.
+    pub fifo_priority: i32,
+}
+
+/// Synthetic work: a dependent read-modify-write walk over a buffer, one cache line per
+/// element, resumed each tick where the last one stopped.
+struct Work {
+    buffer: Vec<f32>,
+    cursor: usize,
+}
+
+impl Work {
+    /// A buffer of `kib` KiB, allocated and touched now; an error if memory refuses it.
+    fn new(kib: usize) -> Result<Self, String> {
+        let len = (kib * 1024 / 4).max(STRIDE);
+        let mut buffer = Vec::new();
+        buffer.try_reserve_exact(len).map_err(|e| format!("--working-set-kib {kib}: cannot allocate it ({e})"))?;
+        buffer.extend((0..len).map(|i| i as f32 * 1e-6));
+        Ok(Self { buffer, cursor: 0 })
+    }
+
+    /// Walks `elements` cache lines, each taking a decaying running sum (bounded: at most
+    /// twice the largest value plus one); returns the sum so the walk is not optimised out.
+    fn walk(&mut self, elements: usize) -> f32 {
+        let mut acc = 1.0f32;
+        for _ in 0..elements {
+            let x = &mut self.buffer[self.cursor];
+            acc = acc * 0.5 + *x;
+            *x = acc;
+            self.cursor += STRIDE;
+            if self.cursor >= self.buffer.len() {
+                self.cursor = 0;
+            }
+        }
+        acc
+    }
+
+    /// Elements per `work_ns`, from the fastest of several timed walks of the whole buffer
+    /// on this (pinned) thread.
+    fn elements_for(&mut self, work_ns: f64) -> usize {
+        let lines = self.buffer.len() / STRIDE;
+        let passes = (2_000_000 / lines).max(1);
+        let mut best = f64::INFINITY;
+        for _ in 0..7 {
+            let t = Instant::now();
+            std::hint::black_box(self.walk(lines * passes));
+            best = best.min(t.elapsed().as_secs_f64() * 1e9 / (lines * passes) as f64);
+        }
+        (work_ns / best).round().max(1.0) as usize
+    }
+}
+
+/// Runs of slow ticks in a loop's record.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct SlowBursts {
+    /// Bursts: runs of slow ticks, each gap of at most [`BURST_JOIN`] fast ticks inside one.
+    pub count: usize,
+    /// Slow ticks in all.
+    pub slow_ticks: usize,
+    /// Ticks from the first to the last slow tick of the longest burst.
+    pub longest: usize,
+}
+
+/// The bursts of ticks slower than `slow_ns` in `compute_ns` (in tick order).
+pub fn slow_bursts(compute_ns: impl IntoIterator<Item = u64>, slow_ns: u64) -> SlowBursts {
+    let mut bursts = SlowBursts::default();
+    // First and last slow tick of the burst under way.
+    let mut open: Option<(usize, usize)> = None;
+    for (i, c) in compute_ns.into_iter().enumerate() {
+        if c <= slow_ns {
+            continue;
+        }
+        bursts.slow_ticks += 1;
+        open = match open {
+            Some((first, last)) if i - last <= BURST_JOIN + 1 => Some((first, i)),
+            previous => {
+                if let Some((first, last)) = previous {
+                    bursts.longest = bursts.longest.max(last - first + 1);
+                }
+                bursts.count += 1;
+                Some((i, i))
+            }
+        };
+    }
+    if let Some((first, last)) = open {
+        bursts.longest = bursts.longest.max(last - first + 1);
+    }
+    bursts
+}
+
+/// Runs the loop once per sleep slice and prints the table.
+pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
+    if !(opts.seconds.is_finite() && opts.seconds > 0.0 && opts.seconds <= 3600.0) {
+        return Err(format!("--seconds {}: between 0 and 3600", opts.seconds));
+    }
+    let period_us = 1e6 / f64::from(opts.rate_hz.max(1));
+    if !(opts.work_us.is_finite() && opts.work_us >= 0.0 && opts.work_us < period_us) {
+        return Err(format!("--work-us {}: at least 0 and less than the period, {period_us:.1} µs", opts.work_us));
+    }
+    if !(1..=1 << 20).contains(&opts.working_set_kib) {
+        return Err(format!("--working-set-kib {}: 1 to 1048576 (1 GiB)", opts.working_set_kib));
+    }
+    if let Some(bad) = opts.sleep_slices_us.iter().find(|&&s| s != 0 && !(10..=1_000_000).contains(&s)) {
+        return Err(format!("--sleep-slices-us {bad}: 0 (one sleep) or 10 to 1000000"));
+    }
+    let ticks = (opts.seconds * f64::from(opts.rate_hz)).ceil() as usize;
+    if ticks > MAX_TICKS {
+        return Err(format!(
+            "--seconds {} at {} Hz is {ticks} ticks; at most {MAX_TICKS} are recorded (40 bytes each)",
+            opts.seconds, opts.rate_hz
+        ));
+    }
+    let cpu = opts.cpu.or_else(|| available_cpus().last().copied());
+    let mut request = RealtimeRequest::new().lock_memory();
+    request.cpu = cpu;
+    if opts.fifo_priority > 0 {
+        request = request.fifo_priority(opts.fifo_priority);
+    }
+    let mut work = Work::new(opts.working_set_kib)?;
+    // Before pinning, which narrows the CPUs the process sees.
+    println!("machine: {}", machine::describe());
+    print!("{}", RealtimeSetup::apply(&request));
+    let elements = work.elements_for(opts.work_us * 1e3);
+    println!(
+        "loop: {} Hz on CPU {}, {:.0} µs of work per tick ({elements} dependent cache-line updates over {} KiB), {} s per sleep slice; a tick is slow at {SLOW_FACTOR}x the median work",
+        opts.rate_hz,
+        cpu.map_or("any".into(), |c| c.to_string()),
+        opts.work_us,
+        opts.working_set_kib,
+        opts.seconds
+    );
+    println!(
+        "\n| sleep slice | ticks | misses | lateness p99 | lateness max | work p50 | work p99 | work max | slow ticks | slow bursts | longest burst | host steal on the CPU |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for &slice in &opts.sleep_slices_us {
+        let clock = MonotonicClock::new().with_sleep_slice_ns(u64::from(slice) * 1_000);
+        let mut lp = FixedRateLoop::try_new(clock, opts.rate_hz, OverrunPolicy::Skip).map_err(|e| e.to_string())?;
+        let config = MonitorConfig::for_period_ns(lp.period_ns()).with_record_capacity(ticks);
+        let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
+        let steal_before = StealSnapshot::read().ok();
+        let mut sink = 0.0f32;
+        lp.run(RunLimit::duration_ns((opts.seconds * 1e9) as u64), &mut monitor, |_| {
+            sink += work.walk(elements);
+            ControlFlow::Continue(())
+        });
+        std::hint::black_box(sink);
+        let stolen = steal_before
+            .zip(StealSnapshot::read().ok())
+            .zip(cpu)
+            .and_then(|((before, after), cpu)| after.since(&before).cpu(cpu))
+            .map_or("n/a".into(), |c| format!("{} ms", c.stolen_ms));
+        let s = monitor.summary();
+        let bursts = slow_bursts(monitor.records().iter().map(|r| r.compute_ns), s.compute.p50_ns * SLOW_FACTOR);
+        let us = |ns: u64| format!("{:.1} µs", ns as f64 / 1e3);
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} ticks | {stolen} |",
+            if slice == 0 { "one sleep".to_string() } else { format!("{slice} µs") },
+            s.ticks,
+            s.misses,
+            us(s.lateness.p99_ns),
+            us(s.lateness.max_ns),
+            us(s.compute.p50_ns),
+            us(s.compute.p99_ns),
+            us(s.compute.max_ns),
+            bursts.slow_ticks,
+            bursts.count,
+            bursts.longest,
+        );
+    }
+    println!(
+        "\nmisses: ticks whose work ended after the budget (the period). Slow ticks are ones the machine slowed: the same work took {SLOW_FACTOR}x its median or more. Set a `lamina run` against these figures at the same compute per tick: misses it shares with this loop belong to the machine."
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slow_bursts_join_short_gaps_and_measure_the_longest_works() {
+        let fast = 100;
+        let slow = 1_000;
+        // Ticks 2-3 slow, 4 fast, 5 slow: one burst of 4 ticks. Ticks 6-9 fast (a gap of 4 >
+        // BURST_JOIN): the slow tick 10 starts a second burst.
+        let record = [fast, fast, slow, slow, fast, slow, fast, fast, fast, fast, slow, fast];
+        assert_eq!(slow_bursts(record, 300), SlowBursts { count: 2, slow_ticks: 4, longest: 4 });
+        assert_eq!(slow_bursts([fast; 5], 300), SlowBursts::default());
+        assert_eq!(slow_bursts([slow; 5], 300), SlowBursts { count: 1, slow_ticks: 5, longest: 5 });
+    }
+
+    #[test]
+    fn work_walks_every_cache_line_of_its_buffer_works() {
+        let mut work = Work::new(4).unwrap(); // 1,024 f32s: 64 lines
+        let lines = work.buffer.len() / STRIDE;
+        assert_eq!(lines, 64);
+        let before = work.buffer.clone();
+        work.walk(lines);
+        assert_eq!(work.cursor, 0, "a walk of every line ends where it started");
+        let changed: Vec<usize> = (0..work.buffer.len()).filter(|&i| work.buffer[i] != before[i]).collect();
+        // Each line's first element is updated (each takes half the positive sum before it),
+        // no other element.
+        assert!(changed.iter().all(|i| i % STRIDE == 0));
+        assert_eq!(changed.len(), lines);
+    }
+}
