@@ -227,6 +227,9 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let _ = lp.clock().now();
     drop(out);
     println!("\n{monitor}");
+    if let Some(hint) = machine_misses_hint(&monitor.summary()) {
+        println!("{hint}");
+    }
     let steal = steal_at_start.zip(StealSnapshot::read().ok()).map(|(start, end)| end.since(&start));
     if let Some(steal) = &steal {
         println!("{}", steal_line(steal, cpu));
@@ -333,6 +336,18 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
         );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
+}
+
+/// After a run with misses, the command that measures how many the machine itself causes: the
+/// same loop with the run's median compute per tick and no physics.
+fn machine_misses_hint(summary: &lamina_rt::MonitorSummary) -> Option<String> {
+    (summary.misses > 0).then(|| {
+        let work_us = (summary.compute.p50_ns as f64 / 1e3).round().max(1.0);
+        let seconds = (summary.ticks as f64 * summary.period_ns as f64 / 1e9).round().max(1.0);
+        format!(
+            "to see how many misses the machine causes to any loop of this length: lamina bench noise --work-us {work_us:.0} --seconds {seconds:.0} (docs/benchmarks.md)"
+        )
+    })
 }
 
 /// The CPU the loop is pinned to: the scene's, else the last one available.
@@ -525,5 +540,24 @@ mod tests {
         assert_eq!(at(2.1e-3), None);
         let warning = at(6.4e-3).expect("a 6.4 mm gap is warned of");
         assert!(warning.contains("6.4 mm apart"), "{warning}");
+    }
+
+    #[test]
+    fn machine_misses_hint_gives_the_runs_median_compute_and_length_works() {
+        use lamina_rt::FakeClock;
+        // One second at 1 kHz, 200 µs per tick; with `slow_tick`, that tick takes 1.5 ms.
+        let monitor_of = |slow_tick: Option<u64>| {
+            let clock = FakeClock::new(0).with_compute(move |t| if Some(t) == slow_tick { 1_500_000 } else { 200_000 });
+            let mut lp = FixedRateLoop::new(clock.clone(), 1_000, OverrunPolicy::Skip);
+            let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(lp.period_ns()));
+            lp.run(RunLimit::duration_ns(1_000_000_000), &mut monitor, |info| {
+                clock.spend(info.tick);
+                ControlFlow::Continue(())
+            });
+            monitor
+        };
+        assert_eq!(machine_misses_hint(&monitor_of(None).summary()), None);
+        let hint = machine_misses_hint(&monitor_of(Some(400)).summary()).expect("a run with a miss");
+        assert!(hint.contains("lamina bench noise --work-us 200 --seconds 1 "), "{hint}");
     }
 }
