@@ -241,6 +241,49 @@ impl NodesPublisher {
         Ok(delivered)
     }
 
+    /// Like [`NodesPublisher::publish_from_fn`], but a frame with a coordinate that is not
+    /// finite (NaN, or an infinity, e.g. from a value beyond `f32`'s range) is withheld: the
+    /// positions are checked as they are written, in the same pass, and such a frame goes back
+    /// to the pool unsent (`Ok(None)`), so no subscriber ever sees it. `Ok(Some(n))`: sent to
+    /// `n` subscribers.
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher};
+    ///
+    /// let bridge = Bridge::open(&BridgeConfig::with_prefix("doc_finite"))?;
+    /// let publisher = NodesPublisher::create(&bridge, 3)?;
+    /// assert!(publisher.publish_finite_from_fn(0, 0, 0.0, 3, |i| [i as f32, 0.0, 0.0])?.is_some());
+    /// assert_eq!(publisher.publish_finite_from_fn(1, 1, 0.001, 3, |_| [f32::NAN, 0.0, 0.0])?, None);
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub fn publish_finite_from_fn<F: FnMut(usize) -> [f32; 3]>(
+        &self,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        node_count: usize,
+        mut position: F,
+    ) -> Result<Option<usize>, NodesPublishError> {
+        let count = self.check(node_count)?;
+        let mut finite = true;
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|i| {
+            let p = position(i);
+            finite &= p[0].is_finite() & p[1].is_finite() & p[2].is_finite();
+            p
+        });
+        if !finite {
+            // Dropping the loan returns the frame to the pool without sending it.
+            return Ok(None);
+        }
+        *sample.user_header_mut() =
+            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
+        let delivered = sample.send()?;
+        self.waker.wake();
+        Ok(Some(delivered))
+    }
+
     /// Like [`NodesPublisher::publish_from_fn`], but `fill` receives the whole positions slice
     /// (metres) in shared memory. The slice is zeroed first (one pass over the frame), so
     /// prefer `publish_from_fn` when positions can be produced per index.

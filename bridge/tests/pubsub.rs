@@ -52,6 +52,25 @@ fn nodes_round_trip_works() {
 }
 
 #[test]
+fn nodes_with_a_non_finite_coordinate_are_withheld_works() {
+    let b = bridge("nodes_non_finite");
+    let publisher = NodesPublisher::create(&b, 100).unwrap();
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+    // NaN and infinities anywhere in a frame withhold it; the publisher goes on after.
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let sent = publisher
+            .publish_finite_from_fn(1, 1, 0.001, 100, |i| if i == 57 { [0.0, bad, 0.0] } else { position(1, i) })
+            .unwrap();
+        assert_eq!(sent, None, "{bad}");
+    }
+    assert_eq!(publisher.publish_finite_from_fn(2, 2, 0.002, 100, |i| position(2, i)).unwrap(), Some(1));
+    let frame = subscriber.try_receive().unwrap().expect("the finite frame");
+    assert_eq!(frame.header().sequence, 2);
+    assert!(frame.positions().iter().enumerate().all(|(i, p)| *p == position(2, i)));
+    assert!(subscriber.try_receive().unwrap().is_none(), "no withheld frame reached the subscriber");
+}
+
+#[test]
 fn nodes_receive_timeout_works() {
     let b = bridge("nodes_receive_timeout");
     let subscriber = NodesSubscriber::create(&b).unwrap();

@@ -160,17 +160,15 @@ impl CorePublisher {
 
     /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.
     pub fn publish_nodes<T: Real>(&mut self, tick: u64, state: &State<T>) {
-        if !state.x.all_finite() {
-            self.withheld += 1;
-            return;
-        }
         let (x, y, z) = (&state.x.x, &state.x.y, &state.x.z);
         let n = x.len();
-        let result = self.nodes.publish_from_fn(self.sequence, tick, state.time, n, |i| {
+        // Checked as written: a state with NaN or infinities (or beyond f32) is not published.
+        let result = self.nodes.publish_finite_from_fn(self.sequence, tick, state.time, n, |i| {
             [x[i].to_f64() as f32, y[i].to_f64() as f32, z[i].to_f64() as f32]
         });
         match result {
-            Ok(_) => self.sequence += 1,
+            Ok(Some(_)) => self.sequence += 1,
+            Ok(None) => self.withheld += 1,
             Err(_) => self.failures += 1,
         }
     }

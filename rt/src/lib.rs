@@ -57,7 +57,9 @@ pub mod summary;
 pub mod tick;
 pub mod worst;
 
-pub use clock::{Clock, ComputeModel, DEFAULT_SPIN_NS, FakeClock, MonotonicClock, now_ns, sleep_until_ns};
+pub use clock::{
+    Clock, ComputeModel, DEFAULT_SLEEP_SLICE_NS, DEFAULT_SPIN_NS, FakeClock, MonotonicClock, now_ns, sleep_until_ns,
+};
 pub use fixed_rate::{
     FixedRateLoop, FixedRateLoopCreateError, OverrunPolicy, RunLimit, RunSummary, StopReason, period_ns_from_rate_hz,
 };

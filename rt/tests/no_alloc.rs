@@ -104,3 +104,18 @@ fn loop_with_monitor_does_not_allocate_works() {
 }
 
 const P: u64 = 1_000_000;
+
+#[test]
+fn real_clock_sliced_sleeps_do_not_allocate_works() {
+    use lamina_rt::MonotonicClock;
+    // 5 kHz for 200 ticks (40 ms), each tick's wait sleeping in 20 µs slices: every path of the
+    // real clock's sleep runs, under whatever load the machine has.
+    let clock = MonotonicClock::new().with_sleep_slice_ns(20_000).with_spin_ns(10_000);
+    let mut lp = FixedRateLoop::new(clock, 5_000, OverrunPolicy::Skip);
+    let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(200_000));
+    lp.run(RunLimit::ticks(10), &mut monitor, |_| ControlFlow::Continue(()));
+    let mut ran = 0;
+    let n = allocations_in(|| ran = lp.run(RunLimit::ticks(200), &mut monitor, |_| ControlFlow::Continue(())).ticks);
+    assert_eq!(n, 0, "the real clock's loop allocated {n} times");
+    assert!(ran > 0 && ran <= 200, "{ran} ticks");
+}
