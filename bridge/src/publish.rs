@@ -39,6 +39,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::{ConnectionFailure, UpdateConnections};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, PortFactory as _, ipc};
+use iceoryx2::sample_mut::SampleMut;
 
 use crate::bridge::Bridge;
 use crate::domain::{PrefixLock, PrefixLockError};
@@ -233,12 +234,8 @@ impl NodesPublisher {
         position: F,
     ) -> Result<usize, NodesPublishError> {
         let count = self.check(node_count)?;
-        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(position);
-        *sample.user_header_mut() =
-            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
-        let delivered = sample.send()?;
-        self.waker.wake();
-        Ok(delivered)
+        let sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(position);
+        self.send(sample, sequence, tick, sim_time_s, count)
     }
 
     /// Like [`NodesPublisher::publish_from_fn`], but a frame with a coordinate that is not
@@ -268,7 +265,7 @@ impl NodesPublisher {
     ) -> Result<Option<usize>, NodesPublishError> {
         let count = self.check(node_count)?;
         let mut finite = true;
-        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|i| {
+        let sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|i| {
             let p = position(i);
             finite &= p[0].is_finite() & p[1].is_finite() & p[2].is_finite();
             p
@@ -277,11 +274,7 @@ impl NodesPublisher {
             // Dropping the loan returns the frame to the pool without sending it.
             return Ok(None);
         }
-        *sample.user_header_mut() =
-            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
-        let delivered = sample.send()?;
-        self.waker.wake();
-        Ok(Some(delivered))
+        self.send(sample, sequence, tick, sim_time_s, count).map(Some)
     }
 
     /// Like [`NodesPublisher::publish_from_fn`], but `fill` receives the whole positions slice
@@ -298,8 +291,21 @@ impl NodesPublisher {
         let count = self.check(node_count)?;
         let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|_| [0.0; 3]);
         fill(sample.payload_mut());
+        self.send(sample, sequence, tick, sim_time_s, count)
+    }
+
+    /// Stamps a written frame's header (`publish_time_ns` now), sends it and wakes blocking
+    /// subscribers; the number of subscribers it was delivered to.
+    fn send(
+        &self,
+        mut sample: SampleMut<ipc::Service, [[f32; 3]], NodesHeader>,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        node_count: u32,
+    ) -> Result<usize, NodesPublishError> {
         *sample.user_header_mut() =
-            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count: count, reserved: 0 };
+            NodesHeader { sequence, tick, sim_time_s, publish_time_ns: now_ns(), node_count, reserved: 0 };
         let delivered = sample.send()?;
         self.waker.wake();
         Ok(delivered)

@@ -7,7 +7,7 @@ use super::machine;
 use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
     DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest, RealtimeSetup,
-    RunLimit, available_cpus,
+    RunLimit,
 };
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -151,7 +151,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
             opts.seconds, opts.rate_hz
         ));
     }
-    let cpu = opts.cpu.or_else(|| available_cpus().last().copied());
+    let cpu = super::run::cpu_or_last(opts.cpu);
     let mut request = RealtimeRequest::new().lock_memory();
     request.cpu = cpu;
     if opts.fifo_priority > 0 {
@@ -186,11 +186,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
             ControlFlow::Continue(())
         });
         std::hint::black_box(sink);
-        let stolen = steal_before
-            .zip(StealSnapshot::read().ok())
-            .zip(cpu)
-            .and_then(|((before, after), cpu)| after.since(&before).cpu(cpu))
-            .map_or("n/a".into(), |c| format!("{} ms", c.stolen_ms));
+        let stolen = super::run::loop_steal_ms(StealSnapshot::read().ok().as_ref(), steal_before.as_ref(), cpu);
         let s = monitor.summary();
         let bursts = slow_bursts(monitor.records().iter().map(|r| r.compute_ns), s.compute.p50_ns * SLOW_FACTOR);
         let us = |ns: u64| format!("{:.1} µs", ns as f64 / 1e3);

@@ -352,11 +352,16 @@ fn machine_misses_hint(summary: &lamina_rt::MonitorSummary) -> Option<String> {
 
 /// The CPU the loop is pinned to: the scene's, else the last one available.
 fn loop_cpu(scene: &Scene) -> Option<usize> {
-    scene.realtime.cpu.or_else(|| available_cpus().last().copied())
+    cpu_or_last(scene.realtime.cpu)
+}
+
+/// `cpu`, else the last CPU the process may use: where `lamina run` pins its loop.
+pub(super) fn cpu_or_last(cpu: Option<usize>) -> Option<usize> {
+    cpu.or_else(|| available_cpus().last().copied())
 }
 
 /// The loop CPU's steal between two snapshots, as `12 ms`, or `n/a`.
-fn loop_steal_ms(now: Option<&StealSnapshot>, before: Option<&StealSnapshot>, cpu: Option<usize>) -> String {
+pub(super) fn loop_steal_ms(now: Option<&StealSnapshot>, before: Option<&StealSnapshot>, cpu: Option<usize>) -> String {
     let stolen = now.zip(before).zip(cpu).and_then(|((now, before), cpu)| now.since(before).cpu(cpu));
     stolen.map_or("n/a".into(), |c| format!("{} ms", c.stolen_ms))
 }

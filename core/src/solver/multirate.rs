@@ -138,6 +138,10 @@ impl LateBuild {
     }
 }
 
+/// [`MultirateSettings::build_exchanges`] with [`LateBuild::Defer`] when not given: a region
+/// is taken at the first exchange after it is built.
+pub(crate) const DEFER_BUILD_EXCHANGES: u32 = 2;
+
 /// Largest [`MultirateSettings::build_exchanges`].
 pub const MAX_BUILD_EXCHANGES: u32 = 100_000;
 
@@ -662,7 +666,7 @@ impl<T: Real> Multirate<T> {
         effects: Effects,
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
-        let build_exchanges = settings.build_exchanges.unwrap_or(2);
+        let build_exchanges = settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
         let free_count = free.iter().filter(|&&f| f).count();
@@ -1081,7 +1085,7 @@ fn bulk_loop<T: Real>(
         let request = packet.recentre.take();
         let capacity = packet.effects_capacity;
         if let Some((centre, builder)) = request.zip(builder.as_ref()) {
-            let build_exchanges = builder.settings.build_exchanges.unwrap_or(2);
+            let build_exchanges = builder.settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
             match start_build::<T>(builder, centre, capacity) {
                 // Asked with packet `exchange`, taken by the region at exchange
                 // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.

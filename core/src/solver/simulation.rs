@@ -20,8 +20,8 @@ use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
 use super::multirate::{
-    LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate, MultirateSettings, MultirateStatus, RegionBuilder,
-    Relocation, auto_build_exchanges, build_bulk, build_region,
+    DEFER_BUILD_EXCHANGES, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate, MultirateSettings,
+    MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk, build_region,
 };
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
@@ -218,7 +218,7 @@ impl<T: Real> Simulation<T> {
         let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, None)?;
         let build_exchanges = settings.build_exchanges.unwrap_or_else(|| match settings.late_build {
             // Taken as soon as it is built.
-            LateBuild::Defer => 2,
+            LateBuild::Defer => DEFER_BUILD_EXCHANGES,
             LateBuild::Wait => auto_build_exchanges(bulk_start.elapsed(), params.dt, settings.ratio),
         });
         let settings = MultirateSettings { build_exchanges: Some(build_exchanges), ..settings };
