@@ -32,6 +32,7 @@
 
 pub mod bridge;
 pub mod domain;
+mod interleave;
 pub mod publish;
 pub mod services;
 pub mod subscribe;

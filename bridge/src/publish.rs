@@ -43,6 +43,7 @@ use iceoryx2::sample_mut::SampleMut;
 
 use crate::bridge::Bridge;
 use crate::domain::{PrefixLock, PrefixLockError};
+use crate::interleave::interleave_finite;
 use crate::services::{
     Message, MessageService, NodesService, PortCreateError, TopologyService, WakeService, open_message_service,
     open_nodes_service, open_topology_service, open_wake_service,
@@ -68,6 +69,16 @@ pub enum NodesPublishError {
     /// iceoryx2 could not deliver the sample.
     #[error("cannot publish node frame: {0}")]
     Send(SendError),
+    /// The coordinate arrays of one frame differ in length.
+    #[error("cannot publish node frame: coordinate arrays of {x}, {y} and {z} entries (x, y, z) differ in length")]
+    CoordinateLengths {
+        /// Entries in x.
+        x: usize,
+        /// Entries in y.
+        y: usize,
+        /// Entries in z.
+        z: usize,
+    },
 }
 
 /// Why a topology was not published. Nothing was sent when this is returned.
@@ -270,6 +281,54 @@ impl NodesPublisher {
             finite &= p[0].is_finite() & p[1].is_finite() & p[2].is_finite();
             p
         });
+        if !finite {
+            // Dropping the loan returns the frame to the pool without sending it.
+            return Ok(None);
+        }
+        self.send(sample, sequence, tick, sim_time_s, count).map(Some)
+    }
+
+    /// Like [`NodesPublisher::publish_finite_from_fn`], with the positions given as three
+    /// coordinate arrays (metres, one entry per node, as the solver keeps them): node `i` is
+    /// `[x[i], y[i], z[i]]`. The records are interleaved with vector permutes chosen at run
+    /// time (AVX-512 or AVX2; a scalar loop elsewhere), about twice as fast as writing one
+    /// node at a time. `Ok(None)`: a coordinate is not finite and the frame went back to the
+    /// pool unsent.
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use lamina_bridge::{Bridge, BridgeConfig, NodesPublisher};
+    ///
+    /// let bridge = Bridge::open(&BridgeConfig::with_prefix("doc_xyz"))?;
+    /// let publisher = NodesPublisher::create(&bridge, 3)?;
+    /// let (x, y, z) = ([0.0, 0.01, 0.02], [0.0; 3], [0.05; 3]);
+    /// assert!(publisher.publish_finite_xyz(0, 0, 0.0, &x, &y, &z)?.is_some());
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// [`NodesPublishError::CoordinateLengths`] when the three arrays differ in length,
+    /// [`NodesPublishError::TooManyNodes`] beyond the publisher's maximum; otherwise what
+    /// iceoryx2 refused.
+    pub fn publish_finite_xyz(
+        &self,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        x: &[f32],
+        y: &[f32],
+        z: &[f32],
+    ) -> Result<Option<usize>, NodesPublishError> {
+        let node_count = x.len();
+        if y.len() != node_count || z.len() != node_count {
+            return Err(NodesPublishError::CoordinateLengths { x: x.len(), y: y.len(), z: z.len() });
+        }
+        let count = self.check(node_count)?;
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?;
+        let finite = interleave_finite(x, y, z, sample.payload_mut());
+        // SAFETY: `interleave_finite` wrote every record of the payload, finite or not.
+        let sample = unsafe { sample.assume_init() };
         if !finite {
             // Dropping the loan returns the frame to the pool without sending it.
             return Ok(None);

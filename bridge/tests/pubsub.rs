@@ -71,6 +71,29 @@ fn nodes_with_a_non_finite_coordinate_are_withheld_works() {
 }
 
 #[test]
+fn nodes_from_coordinate_arrays_arrive_as_records_and_non_finite_ones_are_withheld_works() {
+    let b = bridge("nodes_xyz");
+    // 2,769 nodes: whole vector blocks of 16 and 8 and a tail.
+    let n = 2769;
+    let publisher = NodesPublisher::create(&b, n).unwrap();
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+    let axis = |seq: u64, c: usize| -> Vec<f32> { (0..n).map(|i| position(seq, i)[c]).collect() };
+    let (x, y, z) = (axis(3, 0), axis(3, 1), axis(3, 2));
+    assert_eq!(publisher.publish_finite_xyz(3, 30, 0.03, &x, &y, &z).unwrap(), Some(1));
+    let mut bad_z = axis(4, 2);
+    bad_z[n - 1] = f32::NAN;
+    assert_eq!(publisher.publish_finite_xyz(4, 40, 0.04, &axis(4, 0), &axis(4, 1), &bad_z).unwrap(), None);
+    let err = publisher.publish_finite_xyz(5, 50, 0.05, &x, &y[..n - 1], &z).unwrap_err();
+    assert_eq!(err, NodesPublishError::CoordinateLengths { x: n, y: n - 1, z: n });
+
+    let frame = subscriber.try_receive().unwrap().expect("the finite frame");
+    assert_eq!((frame.header().sequence, frame.header().tick, frame.header().node_count), (3, 30, n as u32));
+    assert_eq!(frame.positions().len(), n);
+    assert!(frame.positions().iter().enumerate().all(|(i, p)| *p == position(3, i)));
+    assert!(subscriber.try_receive().unwrap().is_none(), "no withheld or refused frame reached the subscriber");
+}
+
+#[test]
 fn nodes_receive_timeout_works() {
     let b = bridge("nodes_receive_timeout");
     let subscriber = NodesSubscriber::create(&b).unwrap();

@@ -11,6 +11,7 @@ use lamina_core::real::Real;
 use lamina_core::scene::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource, VisualSection};
 use lamina_core::solver::State;
 use lamina_rt::MonitorSummary;
+use std::any::Any;
 
 /// Publishers of one core process.
 pub struct CorePublisher {
@@ -163,9 +164,13 @@ impl CorePublisher {
         let (x, y, z) = (&state.x.x, &state.x.y, &state.x.z);
         let n = x.len();
         // Checked as written: a state with NaN or infinities (or beyond f32) is not published.
-        let result = self.nodes.publish_finite_from_fn(self.sequence, tick, state.time, n, |i| {
-            [x[i].to_f64() as f32, y[i].to_f64() as f32, z[i].to_f64() as f32]
-        });
+        let result = match (as_f32(x), as_f32(y), as_f32(z)) {
+            // An f32 state goes out as it is, interleaved with vector permutes.
+            (Some(x), Some(y), Some(z)) => self.nodes.publish_finite_xyz(self.sequence, tick, state.time, x, y, z),
+            _ => self.nodes.publish_finite_from_fn(self.sequence, tick, state.time, n, |i| {
+                [x[i].to_f64() as f32, y[i].to_f64() as f32, z[i].to_f64() as f32]
+            }),
+        };
         match result {
             Ok(Some(_)) => self.sequence += 1,
             Ok(None) => self.withheld += 1,
@@ -200,4 +205,10 @@ impl CorePublisher {
             self.failures += 1;
         }
     }
+}
+
+/// `c` as `f32`s when `T` is `f32`.
+#[allow(clippy::ptr_arg)] // `Any` downcasts a sized type: the `Vec`, not its slice.
+fn as_f32<T: Real>(c: &Vec<T>) -> Option<&[f32]> {
+    (c as &dyn Any).downcast_ref::<Vec<f32>>().map(Vec::as_slice)
 }
