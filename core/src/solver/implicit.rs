@@ -131,9 +131,7 @@ impl<T: Real> ImplicitSolver<T> {
         }
         if let Some(k) = dynamics.effects.skin_volume {
             for (t, out) in self.tet_grad.iter_mut().enumerate() {
-                let (grad, inv_v0) = dynamics.skin_volume.gradient(t, x);
-                let w = (k * inv_v0).sqrt();
-                *out = grad.map(|g| g.map(|c| T::from_f64(w * c)));
+                *out = dynamics.skin_volume.weighted_gradient(t, k, x);
             }
         }
     }
@@ -158,18 +156,7 @@ impl<T: Real> ImplicitSolver<T> {
             y.set(b, [yb[0] - t[0], yb[1] - t[1], yb[2] - t[2]]);
         }
         if dynamics.effects.skin_volume.is_some() {
-            for (tet, g) in dynamics.skin_volume.tets.iter().zip(&self.tet_grad) {
-                let mut gp = T::ZERO;
-                for (&i, gi) in tet.iter().zip(g) {
-                    let i = i as usize;
-                    gp += gi[0] * p.x[i] + gi[1] * p.y[i] + gi[2] * p.z[i];
-                }
-                let s = ck * gp;
-                for (&i, gi) in tet.iter().zip(g) {
-                    let yi = y.get(i as usize);
-                    y.set(i as usize, [yi[0] + s * gi[0], yi[1] + s * gi[1], yi[2] + s * gi[2]]);
-                }
-            }
+            dynamics.skin_volume.add_stiffness_product(&self.tet_grad, ck, p, y);
         }
         // The tool's contact points: stiffness along their normals (listed when the
         // simulation asked the tool evaluation to record them).

@@ -206,9 +206,7 @@ impl<T: Real> ImplicitFactored<T> {
                 // SAFETY: the workers' shares are disjoint.
                 let out = unsafe { grads.range_mut(share) };
                 for (i, out) in out.iter_mut().enumerate() {
-                    let (grad, inv_v0) = volume.gradient(first + i, x);
-                    let w = (k * inv_v0).sqrt();
-                    *out = grad.map(|g| g.map(|c| T::from_f64(w * c)));
+                    *out = volume.weighted_gradient(first + i, k, x);
                 }
             });
         }
@@ -299,17 +297,7 @@ impl<T: Real> ImplicitFactored<T> {
             ap.set(i, [0, 1, 2].map(|c| y[c] + k * pv[c]));
         }
         if dynamics.effects.skin_volume.is_some() {
-            for (tet, g) in dynamics.skin_volume.tets.iter().zip(&self.tet_grad) {
-                let mut gp = T::ZERO;
-                for (&i, gi) in tet.iter().zip(g) {
-                    let pv = p.get(i as usize);
-                    gp += gi[0] * pv[0] + gi[1] * pv[1] + gi[2] * pv[2];
-                }
-                for (&i, gi) in tet.iter().zip(g) {
-                    let y = ap.get(i as usize);
-                    ap.set(i as usize, [0, 1, 2].map(|c| y[c] + gp * gi[c]));
-                }
-            }
+            dynamics.skin_volume.add_stiffness_product(&self.tet_grad, T::ONE, p, ap);
         }
         for s in &dynamics.contacts {
             let mut q = [0.0f64; 3];

@@ -131,12 +131,49 @@ impl SkinVolume {
         }
     }
 
-    /// Gradient of tetrahedron `t`'s volume at `x`, m², per corner, and `1/|V₀|`, 1/m³: the
-    /// term's Gauss-Newton stiffness is `k/|V₀| ∇V ∇Vᵀ` (positive semi-definite; the
-    /// implicit solver's tangent).
-    pub(crate) fn gradient<T: Real>(&self, t: usize, x: &Vec3s<T>) -> ([[f64; 3]; 4], f64) {
-        let p = self.tets[t].map(|i| x.get_f64(i as usize));
-        (volume_and_gradient(p).1, 1.0 / self.rest_volume[t].abs())
+    /// `√(k/|V₀|) ∇V` of tetrahedron `t` at positions `x` (m) for stiffness `k` (Pa), per
+    /// corner, in `T`: the term's Gauss-Newton stiffness `k/|V₀| ∇V ∇Vᵀ` (positive
+    /// semi-definite; the implicit solvers' tangent) is its outer product. Computed in f64.
+    pub(crate) fn weighted_gradient<T: Real>(&self, t: usize, k: f64, x: &Vec3s<T>) -> [[T; 3]; 4] {
+        let [xs, ys, zs] = x.slices();
+        let tet = &self.tets[t];
+        // Written out as in `add_forces`: `array::map` closures stay out of line here.
+        let at = |n: u32| [xs[n as usize].to_f64(), ys[n as usize].to_f64(), zs[n as usize].to_f64()];
+        let (_, g6) = six_volume_and_gradient([at(tet[0]), at(tet[1]), at(tet[2]), at(tet[3])]);
+        // ∇V = ∇(6V)/6, so √(k/|V₀|) ∇V = √(k/(36|V₀|)) ∇(6V).
+        let w = (k * self.inv_36_abs_rest[t]).sqrt();
+        let scaled = |g: [f64; 3]| [T::from_f64(w * g[0]), T::from_f64(w * g[1]), T::from_f64(w * g[2])];
+        [scaled(g6[0]), scaled(g6[1]), scaled(g6[2]), scaled(g6[3])]
+    }
+
+    /// `y += scale Σ_t g_t (g_t · p)`, `g_t` tetrahedron `t`'s [`weighted_gradient`]s in
+    /// `grads` (one entry per tetrahedron): the product of `p` with the term's Gauss-Newton
+    /// stiffness, times `scale`.
+    ///
+    /// [`weighted_gradient`]: SkinVolume::weighted_gradient
+    pub(crate) fn add_stiffness_product<T: Real>(
+        &self,
+        grads: &[[[T; 3]; 4]],
+        scale: T,
+        p: &Vec3s<T>,
+        y: &mut Vec3s<T>,
+    ) {
+        let [px, py, pz] = p.slices();
+        let [yx, yy, yz] = y.slices_mut();
+        for (tet, g) in self.tets.iter().zip(grads) {
+            let mut gp = T::ZERO;
+            for (&i, gi) in tet.iter().zip(g) {
+                let i = i as usize;
+                gp += gi[0] * px[i] + gi[1] * py[i] + gi[2] * pz[i];
+            }
+            let s = scale * gp;
+            for (&i, gi) in tet.iter().zip(g) {
+                let i = i as usize;
+                yx[i] += s * gi[0];
+                yy[i] += s * gi[1];
+                yz[i] += s * gi[2];
+            }
+        }
     }
 
     /// `|∇V|²` of tetrahedron `tet` at the model's rest positions, m⁴.
@@ -246,6 +283,33 @@ mod tests {
             }
         }
         assert!(sv.volume_ratios(&x).next().unwrap() < 0.0, "the deformed tetrahedron is inverted");
+    }
+
+    #[test]
+    fn weighted_gradient_is_the_root_stiffness_times_the_volume_gradient_works() {
+        let (sv, mut x) = one_tet();
+        x.set(2, [0.005, 0.012, 0.001]);
+        let (k, h) = (5e4, 1e-9);
+        let v0 = sv.rest_volume[0];
+        let got = sv.weighted_gradient(0, k, &x);
+        for i in 0..4 {
+            for c in 0..3 {
+                // Central difference of the signed volume, times √(k/|V₀|).
+                let volume_at = |delta: f64| {
+                    let mut p = x.clone();
+                    let mut q = p.get(i);
+                    q[c] += delta;
+                    p.set(i, q);
+                    signed_volume(sv.tets[0].map(|n| p.get_f64(n as usize)))
+                };
+                let want = (k / v0.abs()).sqrt() * (volume_at(h) - volume_at(-h)) / (2.0 * h);
+                assert!(
+                    (got[i][c] - want).abs() <= 1e-6 * want.abs().max(1e-3),
+                    "corner {i} axis {c}: {} vs {want}",
+                    got[i][c]
+                );
+            }
+        }
     }
 
     #[test]
