@@ -5,7 +5,7 @@ use lamina_core::hand_tool::HandTool;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, Scene};
-use lamina_core::solver::Simulation;
+use lamina_core::solver::{LateBuild, Simulation};
 use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
     Clock, DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest,
@@ -316,7 +316,7 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     }
     if let (Some(m), Some(settings)) = (sim.multirate_status(), sim.params().multirate) {
         println!(
-            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own, holding the region's core; the region {} (docs/solvers.md)",
+            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own, holding the region's core; the region {}; {} (docs/solvers.md)",
             m.region_nodes,
             settings.radius * 1e3,
             settings.centre[0],
@@ -327,11 +327,12 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
             if !settings.follow_tool {
                 "stays where it is".to_string()
             } else {
-                format!(
-                    "follows the tool, each region taken {} or more exchanges after asking (late builds: {})",
-                    m.build_exchanges,
-                    settings.late_build.name()
-                )
+                format!("follows the tool, each region taken {} or more exchanges after asking", m.build_exchanges)
+            },
+            match settings.late_build {
+                LateBuild::Defer =>
+                    "late work on the bulk's thread (a step, a region) is taken once done, the loop never waits for it (late_build = \"defer\")",
+                LateBuild::Wait => "the loop waits for late work on the bulk's thread (late_build = \"wait\")",
             }
         );
     }
@@ -412,12 +413,14 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
     );
     if let Some(m) = sim.multirate_status() {
         println!(
-            "multirate: {} bulk steps, mean {:.1} us, longest {:.1} us; the loop waited for the bulk {} time(s), longest {:.1} us; {} non-finite bulk state(s) refused",
+            "multirate: {} bulk steps, mean {:.1} us, longest {:.1} us; the loop waited for the bulk {} time(s), longest {:.1} us; went on {} tick(s) past a late bulk step (at most {} in a row), the ring held; {} non-finite bulk state(s) refused",
             m.bulk_steps,
             m.bulk_step_total_ns as f64 / 1e3 / m.bulk_steps.saturating_sub(1).max(1) as f64,
             m.bulk_step_max_ns as f64 / 1e3,
             m.waits,
             m.wait_max_ns as f64 / 1e3,
+            m.held_ticks,
+            m.held_max_ticks,
             m.refused
         );
         println!(

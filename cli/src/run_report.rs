@@ -106,6 +106,8 @@ impl RunContext {
                 "bulk_step_max_us": m.bulk_step_max_ns as f64 / 1e3,
                 "waits": m.waits,
                 "wait_max_us": m.wait_max_ns as f64 / 1e3,
+                "held_ticks": m.held_ticks,
+                "held_max_ticks": m.held_max_ticks,
                 "refused": m.refused,
                 "recentres": m.recentres,
                 "recentres_refused": m.recentres_refused,

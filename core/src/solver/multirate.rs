@@ -65,7 +65,7 @@ use std::time::{Duration, Instant};
 ///
 /// ```
 /// use lamina_core::scene::{Scene, ToolSource};
-/// use lamina_core::solver::{IntegratorKind, MultirateSettings, Simulation, SphereTool};
+/// use lamina_core::solver::{IntegratorKind, LateBuild, MultirateSettings, Simulation, SphereTool};
 ///
 /// let scene = Scene::builtin_default();
 /// let model = scene.build_model()?;
@@ -73,7 +73,9 @@ use std::time::{Duration, Instant};
 /// let ToolSource::Haptics { device_origin: top, .. } = tool.source else { unreachable!() };
 /// let mut params = scene.solver.clone();
 /// params.integrator = IntegratorKind::ImplicitFactored;
-/// params.multirate = Some(MultirateSettings { centre: top, ..MultirateSettings::default() });
+/// // Work late on the bulk's thread waited for: the same result however fast this machine.
+/// let late_build = LateBuild::Wait;
+/// params.multirate = Some(MultirateSettings { centre: top, late_build, ..MultirateSettings::default() });
 /// let mut effects = scene.effects.clone();
 /// effects.tool = Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: top, velocity: [0.0; 3] });
 /// let mut sim = Simulation::<f32>::new(&model, params, effects)?;
@@ -115,16 +117,22 @@ pub struct MultirateSettings {
     pub late_build: LateBuild,
 }
 
-/// What a region about the tool does when its build is late.
+/// What the region does when work on the bulk's thread is late: a region about the tool
+/// still being built, or the bulk's step not back once it has had its real-time share.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LateBuild {
-    /// Taken at the first exchange after it is done: the loop never waits for a build (on a
-    /// machine too loaded to build in time, the region trails the tool further). For
-    /// real-time runs.
+    /// The loop never waits for either in real time. A region is taken at the first exchange
+    /// after it is done (on a machine too loaded to build in time, the region trails the tool
+    /// further). A bulk step not back at its exchange once `ratio - 1` ticks of wall-clock
+    /// time (`(ratio - 1) · dt`) have passed since it was sent is taken at the first tick it
+    /// is back: the region goes on meanwhile with the ring where the bulk last left it, as it
+    /// does between exchanges ([`MultirateStatus::held_ticks`]). A caller stepping faster than
+    /// real time still waits for the bulk. For real-time runs.
     #[default]
     Defer,
-    /// Waited for (the loop waits with the bulk, counted in [`MultirateStatus::waits`]), so
-    /// a run's result never depends on the threads' timing. For studies and replays.
+    /// Both are waited for (the loop waits with the bulk, counted in
+    /// [`MultirateStatus::waits`]), so a run's result never depends on the threads' timing.
+    /// For studies and replays.
     Wait,
 }
 
@@ -567,6 +575,11 @@ pub struct MultirateStatus {
     pub waits: u64,
     /// Longest such wait, ns.
     pub wait_max_ns: u64,
+    /// Ticks the region went on past a due exchange because the bulk's step was late in real
+    /// time ([`LateBuild::Defer`]), the ring held where the bulk last left it.
+    pub held_ticks: u64,
+    /// Longest run of such ticks before the late step was taken.
+    pub held_max_ticks: u64,
     /// Bulk states refused for a non-finite value (the region kept the last good one).
     pub refused: u64,
     /// Times the region moved to follow the tool.
@@ -599,6 +612,13 @@ pub struct MultirateStatus {
 pub(crate) struct Multirate<T: Real> {
     /// Ticks since the last exchange.
     phase: u32,
+    /// With [`LateBuild::Defer`]: how long a bulk step may take in wall-clock time before
+    /// the region goes on without it, `(ratio - 1) · dt`. `None`: always waited for.
+    late_after: Option<Duration>,
+    /// When the packet with the bulk was sent.
+    sent_at: Instant,
+    /// Ticks held so far past the due exchange.
+    held: u64,
     layout: Layout,
     /// Per model node, whether it moves.
     free: Vec<bool>,
@@ -667,6 +687,11 @@ impl<T: Real> Multirate<T> {
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
         let build_exchanges = settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
+        // The bulk steps ratio · dt: one tick less is its real-time share, whatever the
+        // jitter of the tick that sent it.
+        let tick = bulk.params().dt / f64::from(settings.ratio);
+        let late_after = (settings.late_build == LateBuild::Defer)
+            .then(|| Duration::from_secs_f64(tick * f64::from(settings.ratio.saturating_sub(1))));
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
         let free_count = free.iter().filter(|&&f| f).count();
@@ -712,6 +737,9 @@ impl<T: Real> Multirate<T> {
         };
         Ok(Self {
             phase: 0,
+            late_after,
+            sent_at: Instant::now(),
+            held: 0,
             layout,
             free,
             radius: settings.radius,
@@ -747,14 +775,33 @@ impl<T: Real> Multirate<T> {
     }
 
     /// Whether this tick begins with an exchange ([`receive`](Self::receive), then
-    /// [`send`](Self::send)).
-    pub fn exchange_due(&self) -> bool {
-        self.phase == 0
+    /// [`send`](Self::send)): every `ratio` ticks, or at the first tick after that the bulk's
+    /// step is back when it was late in real time ([`LateBuild::Defer`]). Allocates nothing.
+    pub fn exchange_due(&mut self) -> bool {
+        if self.phase != 0 {
+            return false;
+        }
+        let Some(late_after) = self.late_after else { return true };
+        if self.packet.is_none() {
+            self.packet = self.to_region.pop();
+        }
+        let stopped = || self.bulk_thread.as_ref().is_none_or(JoinHandle::is_finished);
+        if self.packet.is_some() || self.sent_at.elapsed() < late_after || stopped() {
+            self.held = 0;
+            return true;
+        }
+        self.held += 1;
+        self.status.held_ticks += 1;
+        self.status.held_max_ticks = self.status.held_max_ticks.max(self.held);
+        false
     }
 
-    /// Counts the tick; every `ratio` ticks an exchange is due.
+    /// Counts the tick; every `ratio` ticks an exchange is due (held at due while the bulk's
+    /// step is late).
     pub fn end_tick(&mut self) {
-        self.phase = (self.phase + 1) % self.status.ratio;
+        if self.held == 0 {
+            self.phase = (self.phase + 1) % self.status.ratio;
+        }
     }
 
     /// The first half of an exchange: takes the bulk's state (waiting for it if the bulk is
@@ -852,6 +899,7 @@ impl<T: Real> Multirate<T> {
             return;
         }
         self.status.bulk_steps += 1;
+        self.sent_at = Instant::now();
         if let Some(t) = &self.bulk_thread {
             t.thread().unpark();
         }
@@ -1147,5 +1195,61 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_bulk_step_late_in_real_time_is_held_past_and_taken_when_back_works() {
+        let model = Scene::builtin_default().build_model().unwrap();
+        let settings = MultirateSettings {
+            centre: [0.0, 0.062, 0.12],
+            radius: 0.05,
+            ratio: 4,
+            follow_tool: false,
+            ..MultirateSettings::default()
+        };
+        let params = crate::solver::IntegrationParameters {
+            integrator: crate::solver::IntegratorKind::ImplicitFactored,
+            threads: 1,
+            ..Default::default()
+        };
+        let effects = Effects::default();
+        let Relocation { layout, region } =
+            build_region::<f64>(&model, &params, &effects, &settings, (0, 0), None).unwrap();
+        let bulk_params = crate::solver::IntegrationParameters { dt: params.dt * 4.0, ..params.clone() };
+        let bulk = build_bulk::<f64>(&model, &layout.partition, &bulk_params, &effects, None).unwrap();
+        let mut m = Multirate::start(&model, bulk, layout, None, &settings, effects, None).unwrap();
+        // Defer: a bulk step may take three ticks of wall-clock time.
+        assert_eq!(m.late_after, Some(Duration::from_secs_f64(3.0 * params.dt)));
+        let mut state = region.state().clone();
+        // The first exchange: the packet is here. The test keeps it as the bulk would while
+        // stepping, so the step is in flight for as long as the test says.
+        assert!(m.exchange_due());
+        assert!(m.receive(&mut state).is_none());
+        let in_flight = m.packet.take().expect("received");
+        m.end_tick();
+        for _ in 1..4 {
+            assert!(!m.exchange_due());
+            m.end_tick();
+        }
+        // Due again; a caller faster than real time (less than three ticks since the send) waits.
+        m.sent_at = Instant::now();
+        m.late_after = Some(Duration::from_secs(3600));
+        assert!(m.exchange_due());
+        // In real time (three ticks have passed): the region goes on, the exchange stays due.
+        m.late_after = Some(Duration::ZERO);
+        for held in 1..=5 {
+            assert!(!m.exchange_due(), "tick {held} past the exchange");
+            m.end_tick();
+            assert_eq!((m.status.held_ticks, m.status.held_max_ticks, m.phase), (held, held, 0));
+        }
+        // The step comes back: taken at once, and the next exchange is `ratio` ticks later.
+        assert!(m.to_region.push(in_flight).is_ok());
+        assert!(m.exchange_due());
+        m.end_tick();
+        assert_eq!((m.phase, m.status.held_ticks, m.status.held_max_ticks), (1, 5, 5));
+        // Wait: always due on time (the caller then waits in `receive`).
+        m.late_after = None;
+        m.phase = 0;
+        assert!(m.exchange_due());
     }
 }
