@@ -125,14 +125,17 @@ mod avx {
     #[derive(Clone, Copy)]
     pub struct AvxF64(__m256d, __m256d);
 
-    /// Mask of the lanes to keep: all ones where `keep[l] != 0`.
+    /// The `LANES` bytes of `keep`, zero-extended to 32-bit lanes, compared with 0: all ones
+    /// in the lanes to drop. In registers: a mask built in memory lane by lane and loaded
+    /// whole stalls on store forwarding.
     #[inline(always)]
-    fn keep_mask(keep: &[u8]) -> [i64; LANES] {
-        let mut m = [0i64; LANES];
-        for l in 0..LANES {
-            m[l] = if keep[l] != 0 { -1 } else { 0 };
+    fn drop_lanes_32(keep: &[u8]) -> __m256i {
+        let keep = &keep[..LANES];
+        // SAFETY: 8 bytes read from a slice of 8; AVX2 (see the module doc).
+        unsafe {
+            let bytes = _mm_loadl_epi64(keep.as_ptr().cast());
+            _mm256_cmpeq_epi32(_mm256_cvtepu8_epi32(bytes), _mm256_setzero_si256())
         }
-        m
     }
 
     // SAFETY (every unsafe block below): the intrinsics need AVX, present whenever these
@@ -182,15 +185,8 @@ mod avx {
         }
         #[inline(always)]
         fn keep(self, keep: &[u8]) -> Self {
-            let m = keep_mask(keep);
-            let mut m32 = [0i32; LANES];
-            for l in 0..LANES {
-                m32[l] = m[l] as i32;
-            }
-            unsafe {
-                let mask = _mm256_loadu_si256(m32.as_ptr().cast());
-                Self(_mm256_and_ps(self.0, _mm256_castsi256_ps(mask)))
-            }
+            let drop = drop_lanes_32(keep);
+            unsafe { Self(_mm256_andnot_ps(_mm256_castsi256_ps(drop), self.0)) }
         }
         #[inline(always)]
         fn select_positive(self, yes: Self, no: Self) -> Self {
@@ -259,11 +255,12 @@ mod avx {
         }
         #[inline(always)]
         fn keep(self, keep: &[u8]) -> Self {
-            let m = keep_mask(keep);
+            let drop = drop_lanes_32(keep);
             unsafe {
-                let lo = _mm256_castsi256_pd(_mm256_loadu_si256(m.as_ptr().cast()));
-                let hi = _mm256_castsi256_pd(_mm256_loadu_si256(m.as_ptr().add(4).cast()));
-                Self(_mm256_and_pd(self.0, lo), _mm256_and_pd(self.1, hi))
+                // Each 32-bit lane mask widened to 64 bits (sign-extended: all ones stay).
+                let lo = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(drop)));
+                let hi = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(drop)));
+                Self(_mm256_andnot_pd(lo, self.0), _mm256_andnot_pd(hi, self.1))
             }
         }
         #[inline(always)]
@@ -354,8 +351,9 @@ mod tests {
     #[inline(always)]
     fn ops<T: Real, B: Block<T>>(a: &[T], b: &[T]) -> Vec<[T; LANES]> {
         let (x, y) = (B::load(a, 0), B::load(b, 0));
-        let keep = [1u8, 0, 1, 0, 1, 1, 0, 1];
+        let (keep, keep_any) = ([1u8, 0, 1, 0, 1, 1, 0, 1], [0u8, 255, 2, 0, 128, 0, 1, 0]);
         let results = [
+            x.keep(&keep_any),
             x.add(y),
             x.sub(y),
             x.mul(y),
