@@ -362,9 +362,9 @@ pub(crate) struct Layout {
     /// The overlap ([`Partition::overlap`]), indices in the region's model.
     overlap_local: Vec<u32>,
     /// The ring (held in the region's model, stepped by the bulk): indices in the region's
-    /// model and in [`Partition::outer`].
+    /// model and in the model.
     ring_local: Vec<u32>,
-    ring_outer: Vec<u32>,
+    ring_model: Vec<u32>,
 }
 
 impl Layout {
@@ -372,14 +372,13 @@ impl Layout {
         let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
         let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
         let overlap_local = local(&partition.overlap);
-        let (ring_local, ring_outer) = partition
+        let (ring_local, ring_model) = partition
             .outer
             .iter()
-            .enumerate()
-            .filter(|&(_, &i)| partition.local_of[i as usize] != u32::MAX)
-            .map(|(k, &i)| (partition.local_of[i as usize], k as u32))
+            .filter(|&&i| partition.local_of[i as usize] != u32::MAX)
+            .map(|&i| (partition.local_of[i as usize], i))
             .unzip();
-        Self { centre, partition, inner_local, core_local, overlap_local, ring_local, ring_outer }
+        Self { centre, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
     }
 
     /// `effects` (model node indices) in the region's node indices, into `into`: loads and
@@ -525,14 +524,14 @@ struct Packet<T: Real> {
     /// (sized for every free node: a region that moves changes the count).
     core_x: Vec3s<T>,
     core_v: Vec3s<T>,
-    /// The bulk's positions (m) and velocities (m/s), in [`Partition::outer`] order.
-    outer_x: Vec3s<T>,
-    outer_v: Vec3s<T>,
-    /// The bulk's positions of the overlap (m), in [`Partition::overlap`] order.
-    overlap_x: Vec3s<T>,
+    /// Bulk to region: the bulk's whole state, positions (m) and velocities (m/s) of every
+    /// model node, taken in place of the whole state's by swapping (the region's nodes then
+    /// set again from the region). Region to bulk: the whole state it replaced, overwritten.
+    x: Vec3s<T>,
+    v: Vec3s<T>,
     /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
-    /// Compute time of the bulk's step that filled `outer_*`, ns.
+    /// Compute time of the bulk's step that filled `x` and `v`, ns.
     step_ns: u64,
     /// Time the builder's thread took to build `relocation` and its bulk, ns (0 without one).
     build_ns: u64,
@@ -695,13 +694,12 @@ impl<T: Real> Multirate<T> {
         let full = State { x: Vec3s::from_f64(&model.nodes.position), v: Vec3s::zeros(model.nodes.len()), time: 0.0 };
         let free: Vec<bool> = model.nodes.kind.iter().map(|k| *k == NodeKind::Free).collect();
         let free_count = free.iter().filter(|&&f| f).count();
-        let mut packet = Box::new(Packet {
+        let packet = Box::new(Packet {
             region_time: 0.0,
             core_x: Vec3s::zeros(free_count),
             core_v: Vec3s::zeros(free_count),
-            outer_x: Vec3s::zeros(free_count),
-            outer_v: Vec3s::zeros(free_count),
-            overlap_x: Vec3s::zeros(free_count),
+            x: full.x.clone(),
+            v: full.v.clone(),
             tool: None,
             step_ns: 0,
             build_ns: 0,
@@ -712,8 +710,6 @@ impl<T: Real> Multirate<T> {
             adopted: false,
             relocation: None,
         });
-        gather(&full.x, &layout.partition.outer, &mut packet.outer_x);
-        gather(&full.x, &layout.partition.overlap, &mut packet.overlap_x);
         let to_bulk = Arc::new(ArrayQueue::new(1));
         let to_region = Arc::new(ArrayQueue::new(1));
         let quit = Arc::new(AtomicBool::new(false));
@@ -826,18 +822,22 @@ impl<T: Real> Multirate<T> {
         let mut relocation = None;
         if packet.finite {
             // Both halves at the same instant, in the layout the bulk stepped.
-            let gap = largest_distance(&packet.overlap_x, &region.x, &l.overlap_local);
+            let gap = largest_distance(&region.x, &l.overlap_local, &packet.x, &l.partition.overlap);
             self.status.coupling_gap_m = gap;
             self.status.coupling_gap_max_m = self.status.coupling_gap_max_m.max(gap);
             // The bulk's nodes hold this state until the next exchange (zero-order hold: a
             // ring moved on its velocity between exchanges follows the single-rate solver no
-            // better and is less damped).
-            scatter(&packet.outer_x, &l.partition.outer, &mut self.full.x);
-            scatter(&packet.outer_v, &l.partition.outer, &mut self.full.v);
+            // better and is less damped). The bulk's whole state is taken by a swap, and the
+            // region's nodes (the bulk held its core at the last exchange's values) are set
+            // again from the region: the loop copies the region, not the bulk.
+            std::mem::swap(&mut self.full.x, &mut packet.x);
+            std::mem::swap(&mut self.full.v, &mut packet.v);
+            copy_nodes(&region.x, &l.inner_local, &mut self.full.x, &l.partition.inner);
+            copy_nodes(&region.v, &l.inner_local, &mut self.full.v, &l.partition.inner);
             relocation = packet.relocation.take();
             if relocation.is_none() {
-                copy_nodes(&packet.outer_x, &l.ring_outer, &mut region.x, &l.ring_local);
-                copy_nodes(&packet.outer_v, &l.ring_outer, &mut region.v, &l.ring_local);
+                copy_nodes(&self.full.x, &l.ring_model, &mut region.x, &l.ring_local);
+                copy_nodes(&self.full.v, &l.ring_model, &mut region.v, &l.ring_local);
             }
         } else {
             // A region built from a non-finite bulk goes back to be dropped there.
@@ -964,28 +964,26 @@ impl<T: Real> Drop for Multirate<T> {
     }
 }
 
-/// The node lists of a region's layout the bulk thread uses (model indices).
+/// The node list of a region's layout the bulk thread uses (model indices): what it takes
+/// from the region ([`Partition::core`]). It returns its whole state.
 struct BulkLists {
-    /// What it takes from the region ([`Partition::core`]).
     core: Vec<u32>,
-    /// What it returns for the coupling gap ([`Partition::overlap`]).
-    overlap: Vec<u32>,
-    /// What it returns for the region's ring and the whole state ([`Partition::outer`]).
-    outer: Vec<u32>,
 }
 
 impl BulkLists {
     fn of(p: &Partition) -> Self {
-        Self { core: p.core.clone(), overlap: p.overlap.clone(), outer: p.outer.clone() }
+        Self { core: p.core.clone() }
     }
 }
 
-/// The largest distance (m) between `a[k]` and `b[b_nodes[k]]` over `k`; 0 for no node.
-fn largest_distance<T: Real>(a: &Vec3s<T>, b: &Vec3s<T>, b_nodes: &[u32]) -> f64 {
+/// The largest distance (m) between `a[a_nodes[k]]` and `b[b_nodes[k]]` over `k`; 0 for no
+/// node.
+fn largest_distance<T: Real>(a: &Vec3s<T>, a_nodes: &[u32], b: &Vec3s<T>, b_nodes: &[u32]) -> f64 {
     let (a, b) = (a.slices(), b.slices());
     let mut largest = 0.0f64;
-    for (k, &i) in b_nodes.iter().enumerate() {
-        let d2: f64 = (0..3).map(|c| (a[c][k].to_f64() - b[c][i as usize].to_f64()).powi(2)).sum();
+    for (&i, &j) in a_nodes.iter().zip(b_nodes) {
+        let (i, j) = (i as usize, j as usize);
+        let d2: f64 = (0..3).map(|c| (a[c][i].to_f64() - b[c][j].to_f64()).powi(2)).sum();
         largest = largest.max(d2);
     }
     largest.sqrt()
@@ -1097,7 +1095,7 @@ fn bulk_loop<T: Real>(
         }
         // A region sent and not taken (the bulk's state was refused) is dropped.
         let unadopted = pending.take();
-        let BulkLists { core, overlap, outer } = &lists;
+        let core = &lists.core;
         bulk.effects_mut().tool = packet.tool;
         let state = bulk.state_mut();
         scatter(&packet.core_x, core, &mut state.x);
@@ -1105,10 +1103,9 @@ fn bulk_loop<T: Real>(
         state.time = packet.region_time;
         bulk.step();
         let state = bulk.state();
-        gather(&state.x, outer, &mut packet.outer_x);
-        gather(&state.v, outer, &mut packet.outer_v);
-        gather(&state.x, overlap, &mut packet.overlap_x);
-        packet.finite = packet.outer_x.all_finite() && packet.outer_v.all_finite() && packet.overlap_x.all_finite();
+        packet.x.copy_from(&state.x);
+        packet.v.copy_from(&state.v);
+        packet.finite = packet.x.all_finite() && packet.v.all_finite();
         packet.step_ns = start.elapsed().as_nanos() as u64;
         (packet.recentre_refused, packet.build_ns) = (false, 0);
         // Due with this packet: waited for when late if the region is to take it at the same
