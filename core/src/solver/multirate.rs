@@ -821,7 +821,8 @@ impl<T: Real> Multirate<T> {
         let l = &self.layout;
         let mut relocation = None;
         if packet.finite {
-            // Both halves at the same instant, in the layout the bulk stepped.
+            // Both halves at the bulk step's end (the region later by the ticks held when the
+            // step was late), in the layout the bulk stepped.
             let gap = largest_distance(&region.x, &l.overlap_local, &packet.x, &l.partition.overlap);
             self.status.coupling_gap_m = gap;
             self.status.coupling_gap_max_m = self.status.coupling_gap_max_m.max(gap);
