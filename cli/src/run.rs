@@ -316,7 +316,7 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     }
     if let (Some(m), Some(settings)) = (sim.multirate_status(), sim.params().multirate) {
         println!(
-            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own, holding the region's core; the region {}; {} (docs/solvers.md)",
+            "multirate: {} nodes within {} mm of ({:.3}, {:.3}, {:.3}) m every tick on the loop's thread, the other {} every {} ticks on a thread of their own, holding the region's core; the region {}; {} (late_build = \"{}\") (docs/solvers.md)",
             m.region_nodes,
             settings.radius * 1e3,
             settings.centre[0],
@@ -331,9 +331,10 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
             },
             match settings.late_build {
                 LateBuild::Defer =>
-                    "late work on the bulk's thread (a step, a region) is taken once done, the loop never waits for it (late_build = \"defer\")",
-                LateBuild::Wait => "the loop waits for late work on the bulk's thread (late_build = \"wait\")",
-            }
+                    "late work on the bulk's thread (a step, a region) is taken once done, the loop never waits for it",
+                LateBuild::Wait => "the loop waits for late work on the bulk's thread",
+            },
+            settings.late_build.name()
         );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
