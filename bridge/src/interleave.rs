@@ -122,9 +122,9 @@ mod x86 {
                 let vx = _mm512_loadu_ps(x.as_ptr().add(16 * b));
                 let vy = _mm512_loadu_ps(y.as_ptr().add(16 * b));
                 let vz = _mm512_loadu_ps(z.as_ptr().add(16 * b));
-                sum = _mm512_add_ps(sum, _mm512_mul_ps(vx, zero));
-                sum = _mm512_add_ps(sum, _mm512_mul_ps(vy, zero));
-                sum = _mm512_add_ps(sum, _mm512_mul_ps(vz, zero));
+                // One add per block on the running sum (three in a chain held each block up).
+                let zeros = _mm512_add_ps(_mm512_mul_ps(vx, zero), _mm512_mul_ps(vy, zero));
+                sum = _mm512_add_ps(sum, _mm512_add_ps(zeros, _mm512_mul_ps(vz, zero)));
                 for (k, idx) in idx.iter().enumerate() {
                     let xy = _mm512_permutex2var_ps(vx, idx[0], vy);
                     _mm512_storeu_ps(dst.add(48 * b + 16 * k), _mm512_permutex2var_ps(xy, idx[1], vz));
@@ -159,9 +159,9 @@ mod x86 {
                 let vx = _mm256_loadu_ps(x.as_ptr().add(8 * b));
                 let vy = _mm256_loadu_ps(y.as_ptr().add(8 * b));
                 let vz = _mm256_loadu_ps(z.as_ptr().add(8 * b));
-                sum = _mm256_add_ps(sum, _mm256_mul_ps(vx, zero));
-                sum = _mm256_add_ps(sum, _mm256_mul_ps(vy, zero));
-                sum = _mm256_add_ps(sum, _mm256_mul_ps(vz, zero));
+                // One add per block on the running sum (three in a chain held each block up).
+                let zeros = _mm256_add_ps(_mm256_mul_ps(vx, zero), _mm256_mul_ps(vy, zero));
+                sum = _mm256_add_ps(sum, _mm256_add_ps(zeros, _mm256_mul_ps(vz, zero)));
                 for k in 0..3 {
                     let px = _mm256_permutevar8x32_ps(vx, nodes[k]);
                     let py = _mm256_permutevar8x32_ps(vy, nodes[k]);
