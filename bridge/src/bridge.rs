@@ -105,7 +105,8 @@ impl From<NodeCreationFailure> for BridgeOpenError {
 pub struct ServiceNames {
     /// `<prefix>/topology`: static model, core → all, history 1.
     pub topology: ServiceName,
-    /// `<prefix>/nodes`: node positions, core → all, every tick.
+    /// `<prefix>/nodes`: node positions, core → all, every tick (or every
+    /// `node_frame_every` ticks, as the scene says).
     pub nodes: ServiceName,
     /// `<prefix>/tool`: tool pose, haptics → core, newest wins.
     pub tool: ServiceName,

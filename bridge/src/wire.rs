@@ -48,7 +48,8 @@ pub const VOLUME_PATH_LEN: usize = 256;
 /// The user header of every frame on the `nodes` service; the payload is the positions slice.
 ///
 /// Payload: `[[f32; 3]]`, `node_count` entries, node `i`'s position `[x, y, z]` in metres in
-/// the model frame. Published by the core every tick.
+/// the model frame. Published by the core every tick, or every `node_frame_every` ticks when
+/// the scene's `[realtime]` table sets it (`tick` tells which tick a frame follows).
 #[derive(Debug, Default, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("LaminaNodesHeaderV1")]

@@ -132,6 +132,13 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             let mut p =
                 super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref(), scene.visual.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
+            match scene.realtime.node_frame_every {
+                1 => println!("node frames: every tick ([realtime] node_frame_every)"),
+                n => println!(
+                    "node frames: every {n} ticks, {:.1} Hz ([realtime] node_frame_every)",
+                    f64::from(scene.rate_hz) / f64::from(n)
+                ),
+            }
             if let Some(h) = p.haptic.as_mut() {
                 if let Some(tool) = hand_tool.take() {
                     h.attach(tool);
@@ -145,6 +152,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         None => None,
     };
     let probe = monitor.send_probe();
+    let node_frame_every = u64::from(scene.realtime.node_frame_every);
     let total_ns = opts.seconds.map_or(u64::MAX, |s| (s * 1e9) as u64);
     if opts.seconds.is_none() {
         println!("running until Ctrl-C (SIGINT) or SIGTERM");
@@ -178,7 +186,9 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                     if let Some(h) = p.haptic.as_mut() {
                         h.after_step(&sim, info.tick);
                     }
-                    p.publish_nodes(info.tick, sim.state())
+                    if info.tick.is_multiple_of(node_frame_every) {
+                        p.publish_nodes(info.tick, sim.state());
+                    }
                 });
             }
             ControlFlow::Continue(())

@@ -177,3 +177,58 @@ fn core_killed_and_restarted_is_picked_up_by_subscribers_works() {
     assert_eq!(r["receive_errors"].as_u64(), Some(0), "{r}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn node_frames_every_fifth_tick_go_out_on_those_ticks_works() {
+    use lamina_bridge::{Bridge, BridgeConfig, NodesSubscriber};
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = std::env::temp_dir().join(unique_prefix("mp_every"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let prefix = unique_prefix("every");
+    // The shipped default scene, its node frames every 5th tick.
+    let default = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenes/default.toml");
+    let text = std::fs::read_to_string(&default).expect("the default scene");
+    assert!(text.contains("\n[realtime]\n"), "the default scene has a [realtime] table");
+    let scene = dir.join("every5.toml");
+    std::fs::write(&scene, text.replace("\n[realtime]\n", "\n[realtime]\nnode_frame_every = 5\n")).unwrap();
+
+    // Subscribed before the core starts, so it is there for the first frame.
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+    let nodes = NodesSubscriber::create(&bridge).expect("node subscriber");
+    let ticks = dir.join("ticks.csv");
+    let mut cmd = core(&prefix, 2.0, Some(&ticks));
+    cmd.arg("--scene").arg(&scene);
+    let mut core_proc = cmd.spawn().expect("starting lamina run");
+    let mut frames = Vec::new();
+    let watchdog = std::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let exited = core_proc.try_wait().expect("core status").is_some();
+        while let Some(f) = nodes.receive_timeout(Duration::from_millis(5)).expect("receive") {
+            frames.push((f.header().sequence, f.header().tick));
+        }
+        if exited {
+            break;
+        }
+        assert!(std::time::Instant::now() < watchdog, "lamina run did not end");
+    }
+    let status = wait_with_watchdog(&mut core_proc, Duration::from_secs(10), "lamina run");
+    assert!(status.success(), "the core exited with {status}");
+    let mut core_stdout = String::new();
+    std::io::Read::read_to_string(&mut core_proc.stdout.take().unwrap(), &mut core_stdout).unwrap();
+
+    // The core published on exactly the ticks that are multiples of 5 among those it ran.
+    let rows = read_ticks(&ticks);
+    let on_fifth = rows.iter().filter(|r| r.tick % 5 == 0).count() as u64;
+    assert!(rows.len() > 500, "{} ticks recorded", rows.len());
+    assert_eq!(published_frames(&core_stdout), on_fifth, "{core_stdout}");
+    // Frame k was taken after tick 5k. (A test process starved on a loaded machine may find
+    // its buffer overrun: frames can be missing, never out of order or off their ticks.)
+    assert!(frames.len() as u64 * 2 > on_fifth, "{} of {on_fifth} frames received", frames.len());
+    for w in frames.windows(2) {
+        assert!(w[1].0 > w[0].0, "frames in order: {w:?}");
+    }
+    for &(sequence, tick) in &frames {
+        assert_eq!(tick, 5 * sequence, "frame {sequence}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

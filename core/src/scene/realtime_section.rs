@@ -29,6 +29,11 @@ pub struct RealtimeSettings {
     /// tick in one call. Default 100: on a virtual machine a CPU idle for longer than the
     /// host's halt-polling window (200 µs in KVM) can be woken milliseconds late.
     pub sleep_slice_us: u32,
+    /// Ticks from one node frame to the next on `<prefix>/nodes`, 1 to 1,000,000. Default
+    /// 1: a frame every tick. A viewer draws at its display's rate (60 Hz takes one frame
+    /// in 16 at 1 kHz); a larger value leaves the writes of the others out of the loop's
+    /// ticks. The haptic feedback goes out every tick whatever this is.
+    pub node_frame_every: u32,
 }
 
 /// Default [`RealtimeSettings::sleep_slice_us`], µs.
@@ -36,6 +41,9 @@ const DEFAULT_SLEEP_SLICE_US: u32 = 100;
 
 /// Largest [`RealtimeSettings::sleep_slice_us`], µs (one second).
 const MAX_SLEEP_SLICE_US: u32 = 1_000_000;
+
+/// Largest [`RealtimeSettings::node_frame_every`], ticks.
+const MAX_NODE_FRAME_EVERY: u32 = 1_000_000;
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -46,6 +54,7 @@ pub(super) struct RawRealtime {
     budget_us: Option<f64>,
     overrun: Option<String>,
     sleep_slice_us: Option<u32>,
+    node_frame_every: Option<u32>,
 }
 
 /// The `[realtime]` table over the defaults.
@@ -68,6 +77,10 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
     if !(sleep_slice_us == 0 || (10..=MAX_SLEEP_SLICE_US).contains(&sleep_slice_us)) {
         return Err(FieldError::new("realtime.sleep_slice_us", "0 (one sleep) or 10..=1000000"));
     }
+    let node_frame_every = r.node_frame_every.unwrap_or(1);
+    if !(1..=MAX_NODE_FRAME_EVERY).contains(&node_frame_every) {
+        return Err(FieldError::new("realtime.node_frame_every", "1..=1000000 ticks"));
+    }
     Ok(RealtimeSettings {
         cpu: r.cpu,
         fifo_priority,
@@ -75,6 +88,7 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
         budget_us: r.budget_us,
         overrun,
         sleep_slice_us,
+        node_frame_every,
     })
 }
 
@@ -98,12 +112,14 @@ mod tests {
                 budget_us: None,
                 overrun: OverrunChoice::Skip,
                 sleep_slice_us: 100,
+                node_frame_every: 1,
             }
         );
-        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\n")
+        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\nnode_frame_every = 16\n")
             .unwrap();
         assert_eq!((r.cpu, r.fifo_priority, r.lock_memory), (Some(1), None, false));
         assert_eq!((r.budget_us, r.overrun, r.sleep_slice_us), (Some(800.0), OverrunChoice::CatchUp, 0));
+        assert_eq!(r.node_frame_every, 16);
     }
 
     #[test]
@@ -114,6 +130,8 @@ mod tests {
             ("fifo_priority = 100\n", "realtime.fifo_priority"),
             ("sleep_slice_us = 5\n", "realtime.sleep_slice_us"),
             ("sleep_slice_us = 1000001\n", "realtime.sleep_slice_us"),
+            ("node_frame_every = 0\n", "realtime.node_frame_every"),
+            ("node_frame_every = 1000001\n", "realtime.node_frame_every"),
         ] {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");
         }
