@@ -48,6 +48,9 @@ impl fmt::Display for GuardEvent {
     }
 }
 
+/// Nodes the fast scan of [`inspect_state`] takes side by side. Default 8.
+const GUARD_LANES: usize = 8;
+
 /// First problem in `state` under `settings`, with the node, or `None` for a good state.
 ///
 /// A fast vectorisable pass computes Σ(|v|² + |u|²) (NaN and infinity propagate) and the
@@ -61,15 +64,42 @@ pub fn inspect_state<T: Real>(
     let id = T::from_f64(1.0 / (settings.max_displacement * settings.max_displacement));
     let (x, v) = (&state.x, &state.v);
     let n = x.len();
-    let mut sum = T::ZERO;
-    let mut worst = T::ZERO;
-    for i in 0..n {
-        let (dx, dy, dz) = (x.x[i] - rest.x[i], x.y[i] - rest.y[i], x.z[i] - rest.z[i]);
-        let v2 = v.x[i] * v.x[i] + v.y[i] * v.y[i] + v.z[i] * v.z[i];
-        let d2 = dx * dx + dy * dy + dz * dz;
-        sum += v2 + d2;
-        worst = worst.max((v2 * iv).max(d2 * id));
+    // Eight nodes side by side, each lane its own running sum and worst ratio, so the scan
+    // vectorises: 569 nodes in 0.6-0.8 µs where one running sum, a chain of dependent adds,
+    // took 2.0 µs (Xeon VM, fastest of 20,000).
+    let (px, py, pz) = (&x.x[..n], &x.y[..n], &x.z[..n]);
+    let (vx, vy, vz) = (&v.x[..n], &v.y[..n], &v.z[..n]);
+    let (rx, ry, rz) = (&rest.x[..n], &rest.y[..n], &rest.z[..n]);
+    let mut sum = [T::ZERO; GUARD_LANES];
+    let mut worst = [T::ZERO; GUARD_LANES];
+    let whole = n - n % GUARD_LANES;
+    let block = |s: &[T], first: usize| -> [T; GUARD_LANES] {
+        let mut b = [T::ZERO; GUARD_LANES];
+        b.copy_from_slice(&s[first..first + GUARD_LANES]);
+        b
+    };
+    for first in (0..whole).step_by(GUARD_LANES) {
+        let (ax, ay, az) = (block(px, first), block(py, first), block(pz, first));
+        let (bx, by, bz) = (block(vx, first), block(vy, first), block(vz, first));
+        let (cx, cy, cz) = (block(rx, first), block(ry, first), block(rz, first));
+        for l in 0..GUARD_LANES {
+            let (dx, dy, dz) = (ax[l] - cx[l], ay[l] - cy[l], az[l] - cz[l]);
+            let v2 = bx[l] * bx[l] + by[l] * by[l] + bz[l] * bz[l];
+            let d2 = dx * dx + dy * dy + dz * dz;
+            sum[l] += v2 + d2;
+            worst[l] = worst[l].max((v2 * iv).max(d2 * id));
+        }
     }
+    for i in whole..n {
+        let (dx, dy, dz) = (px[i] - rx[i], py[i] - ry[i], pz[i] - rz[i]);
+        let v2 = vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i];
+        let d2 = dx * dx + dy * dy + dz * dz;
+        sum[0] += v2 + d2;
+        worst[0] = worst[0].max((v2 * iv).max(d2 * id));
+    }
+    // A NaN or infinity anywhere makes its lane's sum, and so the total, non-finite.
+    let sum = sum.iter().fold(T::ZERO, |a, &b| a + b);
+    let worst = worst.iter().fold(T::ZERO, |a, &b| a.max(b));
     if sum.is_finite() && worst <= T::ONE {
         return None;
     }
@@ -91,4 +121,53 @@ pub fn inspect_state<T: Real>(
     }
     // Only f32 round-off can get here (the f64 rescan found nothing): call it good.
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::vec3s::Vec3s;
+
+    /// Spoils coordinate `axis` of node `i`.
+    type Spoil = fn(&mut State<f32>, usize, usize);
+
+    /// `n` nodes at rest and their rest positions.
+    fn state(n: usize) -> (State<f32>, Vec3s<f32>) {
+        let rest: Vec<[f64; 3]> = (0..n).map(|i| [0.01 * i as f64, 0.02, -0.03]).collect();
+        let x = Vec3s::<f32>::from_f64(&rest);
+        (State { x: x.clone(), v: Vec3s::zeros(n), time: 0.0 }, x)
+    }
+
+    #[test]
+    fn inspect_state_names_the_bad_node_wherever_it_sits_works() {
+        let n = 19; // two whole blocks of the fast scan and a tail of three
+        let settings = GuardSettings { max_speed: 2.0, max_displacement: 0.1, retries: 2 };
+        let (good, rest) = state(n);
+        assert_eq!(inspect_state(&good, &rest, &settings), None);
+        for node in 0..n {
+            for axis in 0..3 {
+                let cases: [(Spoil, GuardReason); 4] = [
+                    (|s, i, a| s.x.slices_mut()[a][i] = f32::NAN, GuardReason::NonFinite),
+                    (|s, i, a| s.v.slices_mut()[a][i] = f32::INFINITY, GuardReason::NonFinite),
+                    // Just over the limits: 2.01 m/s against 2, 0.101 m against 0.1.
+                    (|s, i, a| s.v.slices_mut()[a][i] = -2.01, GuardReason::TooFast),
+                    (|s, i, a| s.x.slices_mut()[a][i] += 0.101, GuardReason::TooFar),
+                ];
+                for (spoil, reason) in cases {
+                    let (mut s, rest) = state(n);
+                    spoil(&mut s, node, axis);
+                    assert_eq!(
+                        inspect_state(&s, &rest, &settings),
+                        Some((reason, node as u32)),
+                        "node {node}, axis {axis}"
+                    );
+                }
+            }
+        }
+        // Within the limits everywhere: 1.99 m/s and 0.099 m at every node.
+        let (mut s, rest) = state(n);
+        s.v.slices_mut()[1].fill(1.99);
+        s.x.slices_mut()[2].iter_mut().for_each(|z| *z += 0.099);
+        assert_eq!(inspect_state(&s, &rest, &settings), None);
+    }
 }
