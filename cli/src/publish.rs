@@ -1,6 +1,7 @@
 //! The core process's side of the bridge: topology once (with history for late joiners),
 //! node positions every tick (or every `node_frame_every` ticks) written straight into
-//! shared memory, the deadline monitor's summary every second. Publishing never waits for a subscriber (see `lamina-bridge`).
+//! shared memory, the deadline monitor's summary every second. Publishing never waits for a
+//! subscriber (see `lamina-bridge`).
 
 use lamina_bridge::{
     Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, SurfaceTopology, TissueKind,
