@@ -51,6 +51,15 @@ impl fmt::Display for GuardEvent {
 /// Nodes the fast scan of [`inspect_state`] takes side by side. Default 8.
 const GUARD_LANES: usize = 8;
 
+/// One node's `|v|² + |u|²` (u = x − rest) and the larger of `|v|² iv` and `|u|² id`.
+#[inline(always)]
+fn node_terms<T: Real>(x: [T; 3], v: [T; 3], rest: [T; 3], iv: T, id: T) -> (T, T) {
+    let (dx, dy, dz) = (x[0] - rest[0], x[1] - rest[1], x[2] - rest[2]);
+    let v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let d2 = dx * dx + dy * dy + dz * dz;
+    (v2 + d2, (v2 * iv).max(d2 * id))
+}
+
 /// First problem in `state` under `settings`, with the node, or `None` for a good state.
 ///
 /// A fast vectorisable pass computes Σ(|v|² + |u|²) (NaN and infinity propagate) and the
@@ -83,19 +92,15 @@ pub fn inspect_state<T: Real>(
         let (bx, by, bz) = (block(vx, first), block(vy, first), block(vz, first));
         let (cx, cy, cz) = (block(rx, first), block(ry, first), block(rz, first));
         for l in 0..GUARD_LANES {
-            let (dx, dy, dz) = (ax[l] - cx[l], ay[l] - cy[l], az[l] - cz[l]);
-            let v2 = bx[l] * bx[l] + by[l] * by[l] + bz[l] * bz[l];
-            let d2 = dx * dx + dy * dy + dz * dz;
-            sum[l] += v2 + d2;
-            worst[l] = worst[l].max((v2 * iv).max(d2 * id));
+            let (s2, ratio) = node_terms([ax[l], ay[l], az[l]], [bx[l], by[l], bz[l]], [cx[l], cy[l], cz[l]], iv, id);
+            sum[l] += s2;
+            worst[l] = worst[l].max(ratio);
         }
     }
     for i in whole..n {
-        let (dx, dy, dz) = (px[i] - rx[i], py[i] - ry[i], pz[i] - rz[i]);
-        let v2 = vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i];
-        let d2 = dx * dx + dy * dy + dz * dz;
-        sum[0] += v2 + d2;
-        worst[0] = worst[0].max((v2 * iv).max(d2 * id));
+        let (s2, ratio) = node_terms([px[i], py[i], pz[i]], [vx[i], vy[i], vz[i]], [rx[i], ry[i], rz[i]], iv, id);
+        sum[0] += s2;
+        worst[0] = worst[0].max(ratio);
     }
     // A NaN or infinity anywhere makes its lane's sum, and so the total, non-finite.
     let sum = sum.iter().fold(T::ZERO, |a, &b| a + b);
