@@ -106,7 +106,7 @@ pub struct ServiceNames {
     /// `<prefix>/topology`: static model, core → all, history 1.
     pub topology: ServiceName,
     /// `<prefix>/nodes`: node positions, core → all, every tick (or every
-    /// `node_frame_every` ticks, as the scene says).
+    /// `node_frame_every` ticks, as the scene says), late ticks' frames on the next.
     pub nodes: ServiceName,
     /// `<prefix>/tool`: tool pose, haptics → core, newest wins.
     pub tool: ServiceName,

@@ -49,7 +49,8 @@ pub const VOLUME_PATH_LEN: usize = 256;
 ///
 /// Payload: `[[f32; 3]]`, `node_count` entries, node `i`'s position `[x, y, z]` in metres in
 /// the model frame. Published by the core every tick, or every `node_frame_every` ticks when
-/// the scene's `[realtime]` table sets it (`tick` tells which tick a frame follows).
+/// the scene's `[realtime]` table sets it; a tick already past `node_frame_cutoff_us` leaves
+/// its frame to the next tick on time (`tick` tells which tick a frame follows).
 #[derive(Debug, Default, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("LaminaNodesHeaderV1")]

@@ -8,6 +8,7 @@ mod demo;
 mod demo_script;
 mod demo_watch;
 mod fit;
+mod frame_gate;
 mod generate;
 mod haptic_link;
 mod machine;

@@ -1,7 +1,7 @@
 //! The core process's side of the bridge: topology once (with history for late joiners),
-//! node positions every tick (or every `node_frame_every` ticks) written straight into
-//! shared memory, the deadline monitor's summary every second. Publishing never waits for a
-//! subscriber (see `lamina-bridge`).
+//! node positions on the ticks `frame_gate` picks, written straight into shared memory, the
+//! deadline monitor's summary every second. Publishing never waits for a subscriber (see
+//! `lamina-bridge`).
 
 use lamina_bridge::{
     Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, SurfaceTopology, TissueKind,

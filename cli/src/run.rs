@@ -1,6 +1,7 @@
 //! `lamina run`: the core process. Steps a scene at a fixed rate on absolute deadlines,
 //! pinned and at SCHED_FIFO when the system allows, and reports every frame-budget miss.
 
+use super::frame_gate::NodeFrameGate;
 use lamina_core::hand_tool::HandTool;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
@@ -127,18 +128,21 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         config = config.with_record_capacity(opts.ticks_csv_last);
     }
     let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
+    let node_frame_cutoff_us = scene.realtime.node_frame_cutoff_us(lp.period_ns() as f64 / 1e3);
+    let mut frame_gate = NodeFrameGate::new(scene.realtime.node_frame_every, (node_frame_cutoff_us * 1e3) as u64);
     let mut publisher = match &opts.prefix {
         Some(prefix) => {
             let mut p =
                 super::publish::CorePublisher::open(prefix, &model, scene.tool.as_ref(), scene.visual.as_ref())?;
             println!("publishing on iceoryx2 services '{prefix}/topology', '{prefix}/nodes', '{prefix}/stats'");
-            match scene.realtime.node_frame_every {
-                1 => println!("node frames: every tick ([realtime] node_frame_every)"),
-                n => println!(
-                    "node frames: every {n} ticks, {:.1} Hz ([realtime] node_frame_every)",
-                    f64::from(scene.rate_hz) / f64::from(n)
-                ),
-            }
+            let every = match scene.realtime.node_frame_every {
+                1 => "every tick".to_string(),
+                n => format!("every {n} ticks, {:.1} Hz", f64::from(scene.rate_hz) / f64::from(n)),
+            };
+            println!(
+                "node frames: {every}; a tick past {:.0} us leaves its frame to the next tick on time ([realtime] node_frame_every, node_frame_cutoff_us)",
+                node_frame_cutoff_us
+            );
             if let Some(h) = p.haptic.as_mut() {
                 if let Some(tool) = hand_tool.take() {
                     h.attach(tool);
@@ -152,7 +156,6 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         None => None,
     };
     let probe = monitor.send_probe();
-    let node_frame_every = u64::from(scene.realtime.node_frame_every);
     let total_ns = opts.seconds.map_or(u64::MAX, |s| (s * 1e9) as u64);
     if opts.seconds.is_none() {
         println!("running until Ctrl-C (SIGINT) or SIGTERM");
@@ -186,7 +189,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                     if let Some(h) = p.haptic.as_mut() {
                         h.after_step(&sim, info.tick);
                     }
-                    if info.tick.is_multiple_of(node_frame_every) {
+                    if frame_gate.write_now(info.tick, clock.now().saturating_sub(info.scheduled_ns)) {
                         p.publish_nodes(info.tick, sim.state());
                     }
                 });
@@ -244,12 +247,19 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     if let Some(steal) = &steal {
         println!("{}", steal_line(steal, cpu));
     }
-    let finite = print_physics(&sim, publisher.as_ref());
+    let finite = print_physics(&sim, publisher.as_ref(), &frame_gate);
     let recorded = recorder.map(super::record::Recorder::finish);
     if let Some(Ok(summary)) = &recorded {
         println!("{summary}");
     }
-    write_outputs(opts, &monitor, &context.with_steal(steal.as_ref(), cpu).with_multirate(sim.multirate_status()))?;
+    write_outputs(
+        opts,
+        &monitor,
+        &context
+            .with_steal(steal.as_ref(), cpu)
+            .with_multirate(sim.multirate_status())
+            .with_node_frames(publisher.as_ref().map(|p| (p.sequence, &frame_gate))),
+    )?;
     if let Some(Err(e)) = recorded {
         return Err(e);
     }
@@ -409,7 +419,11 @@ fn apply_realtime_setup(scene: &Scene) {
 
 /// Prints the per-frame stage costs and the physics summary (and the publishing and haptic
 /// link counts); returns whether the final state is finite.
-fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish::CorePublisher>) -> bool {
+fn print_physics<T: Real>(
+    sim: &Simulation<T>,
+    publisher: Option<&super::publish::CorePublisher>,
+    frame_gate: &NodeFrameGate,
+) -> bool {
     let c = sim.counters();
     let frames = c.frames.max(1) as f64;
     println!(
@@ -486,8 +500,13 @@ fn print_physics<T: Real>(sim: &Simulation<T>, publisher: Option<&super::publish
     );
     if let Some(p) = publisher {
         println!(
-            "published {} node frames ({} publish failures, {} withheld: state not finite)",
-            p.sequence, p.failures, p.withheld
+            "published {} node frames ({} publish failures, {} withheld: state not finite; {} written a tick or more late and {} shed: their ticks had used more than {:.0} us)",
+            p.sequence,
+            p.failures,
+            p.withheld,
+            frame_gate.deferred(),
+            frame_gate.shed(),
+            frame_gate.cutoff_ns() as f64 / 1e3
         );
         if let Some(h) = &p.haptic {
             let c = h.counts;

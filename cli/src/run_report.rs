@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
+use super::frame_gate::NodeFrameGate;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{DEFAULT_SCENE_TOML, Scene, SceneLoadError};
@@ -120,6 +121,23 @@ impl RunContext {
         });
         if let Some(fields) = self.fields.as_object_mut() {
             fields.insert("multirate".into(), multirate);
+        }
+        self
+    }
+
+    /// Adds the node frames' counts (`node_frames`) from the frames `published` and the
+    /// gate that chose their ticks; `null` without publishing.
+    pub fn with_node_frames(mut self, frames: Option<(u64, &NodeFrameGate)>) -> Self {
+        let value = frames.map_or(serde_json::Value::Null, |(published, gate)| {
+            serde_json::json!({
+                "published": published,
+                "deferred": gate.deferred(),
+                "shed": gate.shed(),
+                "cutoff_us": gate.cutoff_ns() as f64 / 1e3,
+            })
+        });
+        if let Some(fields) = self.fields.as_object_mut() {
+            fields.insert("node_frames".into(), value);
         }
         self
     }

@@ -125,6 +125,11 @@ fn core_and_haptics_reports_carry_their_context_works() {
     assert!(c["solver"]["substeps"].as_u64().is_some_and(|n| n >= 1), "{}", c["solver"]);
     assert!(c["solver"]["simd"].as_str().is_some_and(|s| !s.is_empty()));
     assert_eq!(c["prefix"], prefix.as_str());
+    // Published, the node frames are counted: a frame every tick by default, each written or shed.
+    let frames = &c["node_frames"];
+    let count = |key: &str| frames[key].as_u64().unwrap_or_else(|| panic!("node_frames.{key}: {frames}"));
+    assert_eq!(count("published") + count("shed"), c["ticks"].as_u64().unwrap(), "{frames}");
+    assert!(count("deferred") == 0, "every tick's frame is due on it: none can be written later: {frames}");
     // Host steal: each CPU's figure lies within what /proc/stat moved by around the whole run.
     let tick_ms = 1000 / stdout_of("getconf", &["CLK_TCK"], &root()).unwrap().parse::<u64>().unwrap();
     let steal = &c["host_steal"]["per_cpu_ms"];
@@ -183,6 +188,7 @@ fn built_in_scene_is_hashed_as_its_text_works() {
     // Nothing is published, so nothing is sent; no multirate stepping.
     assert_eq!(c["send"]["max_ns"].as_u64(), Some(0), "{}", c["send"]);
     assert!(c["multirate"].is_null(), "{}", c["multirate"]);
+    assert!(c["node_frames"].is_null(), "{}", c["node_frames"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

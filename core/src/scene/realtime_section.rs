@@ -34,6 +34,19 @@ pub struct RealtimeSettings {
     /// in 16 at 1 kHz); a larger value leaves the writes of the others out of the loop's
     /// ticks. The haptic feedback goes out every tick whatever this is.
     pub node_frame_every: u32,
+    /// A tick that has used more than this since its scheduled start (wake-up lateness plus
+    /// the step so far), µs, does not write the node frame due on it: the frame goes out on
+    /// the first later tick within the cutoff, or is shed when the next one falls due first.
+    /// Default: half the budget (500 µs at 1 kHz). The haptic feedback is never held back.
+    pub node_frame_cutoff_us: Option<f64>,
+}
+
+impl RealtimeSettings {
+    /// [`node_frame_cutoff_us`](Self::node_frame_cutoff_us) for a loop of period
+    /// `period_us`, µs: the value set, or half the budget.
+    pub fn node_frame_cutoff_us(&self, period_us: f64) -> f64 {
+        self.node_frame_cutoff_us.unwrap_or(0.5 * self.budget_us.unwrap_or(period_us))
+    }
 }
 
 /// Default [`RealtimeSettings::sleep_slice_us`], µs.
@@ -55,6 +68,7 @@ pub(super) struct RawRealtime {
     overrun: Option<String>,
     sleep_slice_us: Option<u32>,
     node_frame_every: Option<u32>,
+    node_frame_cutoff_us: Option<f64>,
 }
 
 /// The `[realtime]` table over the defaults.
@@ -81,6 +95,9 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
     if !(1..=MAX_NODE_FRAME_EVERY).contains(&node_frame_every) {
         return Err(FieldError::new("realtime.node_frame_every", "1..=1000000 ticks"));
     }
+    if r.node_frame_cutoff_us.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
+        return Err(FieldError::new("realtime.node_frame_cutoff_us", "must be finite and positive"));
+    }
     Ok(RealtimeSettings {
         cpu: r.cpu,
         fifo_priority,
@@ -89,6 +106,7 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
         overrun,
         sleep_slice_us,
         node_frame_every,
+        node_frame_cutoff_us: r.node_frame_cutoff_us,
     })
 }
 
@@ -113,13 +131,17 @@ mod tests {
                 overrun: OverrunChoice::Skip,
                 sleep_slice_us: 100,
                 node_frame_every: 1,
+                node_frame_cutoff_us: None,
             }
         );
-        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\nnode_frame_every = 16\n")
+        assert_eq!(d.node_frame_cutoff_us(1_000.0), 500.0, "half the period");
+        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\nnode_frame_every = 16\nnode_frame_cutoff_us = 300.0\n")
             .unwrap();
         assert_eq!((r.cpu, r.fifo_priority, r.lock_memory), (Some(1), None, false));
         assert_eq!((r.budget_us, r.overrun, r.sleep_slice_us), (Some(800.0), OverrunChoice::CatchUp, 0));
-        assert_eq!(r.node_frame_every, 16);
+        assert_eq!((r.node_frame_every, r.node_frame_cutoff_us(1_000.0)), (16, 300.0));
+        let budget = parse("budget_us = 800.0\n").unwrap();
+        assert_eq!(budget.node_frame_cutoff_us(1_000.0), 400.0, "half the budget");
     }
 
     #[test]
@@ -132,6 +154,10 @@ mod tests {
             ("sleep_slice_us = 1000001\n", "realtime.sleep_slice_us"),
             ("node_frame_every = 0\n", "realtime.node_frame_every"),
             ("node_frame_every = 1000001\n", "realtime.node_frame_every"),
+            ("node_frame_cutoff_us = 0.0\n", "realtime.node_frame_cutoff_us"),
+            ("node_frame_cutoff_us = -5.0\n", "realtime.node_frame_cutoff_us"),
+            ("node_frame_cutoff_us = nan\n", "realtime.node_frame_cutoff_us"),
+            ("node_frame_cutoff_us = inf\n", "realtime.node_frame_cutoff_us"),
         ] {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");
         }
