@@ -31,6 +31,7 @@
 //! ```
 
 pub mod bridge;
+mod chunk_contents;
 pub mod domain;
 mod interleave;
 pub mod publish;
@@ -44,7 +45,7 @@ pub use domain::{DomainError, PrefixLock, PrefixLockError, UserDomain};
 /// The time base of every `*_time_ns` field on the wire: `CLOCK_MONOTONIC`, ns.
 pub use lamina_rt::now_ns;
 pub use publish::{
-    FeedbackPublisher, MessagePublishError, MessagePublisher, NodesPublishError, NodesPublisher,
+    FeedbackPublisher, MessagePublishError, MessagePublisher, NodeChanges, NodesPublishError, NodesPublisher,
     NodesPublisherCreateError, StatsPublisher, ToolPublisher, TopologyPublishError, TopologyPublisher,
 };
 pub use services::{Message, PortCreateError, PubSubSettings, ServiceOpenError, SettingMismatch};

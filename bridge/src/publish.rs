@@ -40,8 +40,10 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::{ConnectionFailure, UpdateConnections};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, PortFactory as _, ipc};
 use iceoryx2::sample_mut::SampleMut;
+use iceoryx2::sample_mut_uninit::SampleMutUninit;
 
 use crate::bridge::Bridge;
+use crate::chunk_contents::{ChunkContents, scatter_finite};
 use crate::domain::{PrefixLock, PrefixLockError};
 use crate::interleave::interleave_finite;
 use crate::services::{
@@ -78,6 +80,14 @@ pub enum NodesPublishError {
         y: usize,
         /// Entries in z.
         z: usize,
+    },
+    /// A changed node's index is not below the frame's node count.
+    #[error("cannot publish node frame: changed node {index} is not among its {node_count} nodes")]
+    ChangedNodeOutOfRange {
+        /// The index given.
+        index: u32,
+        /// Nodes in the frame.
+        node_count: usize,
     },
 }
 
@@ -191,7 +201,21 @@ pub struct NodesPublisher {
     publisher: Publisher<ipc::Service, [[f32; 3]], NodesHeader>,
     waker: Waker,
     max_nodes: usize,
+    /// What the chunks hold, for [`NodesPublisher::publish_finite_xyz_changed`].
+    chunks: ChunkContents,
 }
+
+/// The nodes that move within an epoch, for [`NodesPublisher::publish_finite_xyz_changed`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeChanges<'a> {
+    /// The caller's count of the times nodes outside `nodes` moved (or `nodes` changed).
+    pub epoch: u64,
+    /// Indices of the nodes that may differ from one frame of the epoch to the next.
+    pub nodes: &'a [u32],
+}
+
+/// A loaned node frame, not yet written.
+type UninitFrame = SampleMutUninit<ipc::Service, [core::mem::MaybeUninit<[f32; 3]>], NodesHeader>;
 
 impl NodesPublisher {
     /// Creates the publisher for frames of at most `max_nodes` positions (at least 1). It
@@ -213,12 +237,30 @@ impl NodesPublisher {
             .max_loaned_samples(1)
             .create()?;
         let waker = Waker::create(bridge, &bridge.names().nodes)?;
-        Ok(Self { _lock: lock, service, publisher, waker, max_nodes })
+        Ok(Self { _lock: lock, service, publisher, waker, max_nodes, chunks: ChunkContents::default() })
     }
 
     /// The fixed maximum node count per frame.
     pub fn max_nodes(&self) -> usize {
         self.max_nodes
+    }
+
+    /// Loans a chunk for `node_count` nodes that the caller writes whole: what was known of
+    /// its content no longer holds.
+    fn loan(&self, node_count: usize) -> Result<UninitFrame, NodesPublishError> {
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?;
+        self.chunks.forget(sample.payload_mut().as_ptr() as usize);
+        Ok(sample)
+    }
+
+    /// The node count of a frame given as three coordinate arrays, as `usize` and as the
+    /// header's `u32`.
+    fn check_xyz(&self, x: &[f32], y: &[f32], z: &[f32]) -> Result<(usize, u32), NodesPublishError> {
+        let node_count = x.len();
+        if y.len() != node_count || z.len() != node_count {
+            return Err(NodesPublishError::CoordinateLengths { x: x.len(), y: y.len(), z: z.len() });
+        }
+        Ok((node_count, self.check(node_count)?))
     }
 
     fn check(&self, node_count: usize) -> Result<u32, NodesPublishError> {
@@ -245,7 +287,7 @@ impl NodesPublisher {
         position: F,
     ) -> Result<usize, NodesPublishError> {
         let count = self.check(node_count)?;
-        let sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(position);
+        let sample = self.loan(node_count)?.write_from_fn(position);
         self.send(sample, sequence, tick, sim_time_s, count)
     }
 
@@ -276,7 +318,7 @@ impl NodesPublisher {
     ) -> Result<Option<usize>, NodesPublishError> {
         let count = self.check(node_count)?;
         let mut finite = true;
-        let sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|i| {
+        let sample = self.loan(node_count)?.write_from_fn(|i| {
             let p = position(i);
             finite &= p[0].is_finite() & p[1].is_finite() & p[2].is_finite();
             p
@@ -320,12 +362,8 @@ impl NodesPublisher {
         y: &[f32],
         z: &[f32],
     ) -> Result<Option<usize>, NodesPublishError> {
-        let node_count = x.len();
-        if y.len() != node_count || z.len() != node_count {
-            return Err(NodesPublishError::CoordinateLengths { x: x.len(), y: y.len(), z: z.len() });
-        }
-        let count = self.check(node_count)?;
-        let mut sample = self.publisher.loan_slice_uninit(node_count)?;
+        let (node_count, count) = self.check_xyz(x, y, z)?;
+        let mut sample = self.loan(node_count)?;
         let finite = interleave_finite(x, y, z, sample.payload_mut());
         // SAFETY: `interleave_finite` wrote every record of the payload, finite or not.
         let sample = unsafe { sample.assume_init() };
@@ -333,6 +371,72 @@ impl NodesPublisher {
             // Dropping the loan returns the frame to the pool without sending it.
             return Ok(None);
         }
+        self.send(sample, sequence, tick, sim_time_s, count).map(Some)
+    }
+
+    /// Like [`NodesPublisher::publish_finite_xyz`] (the coordinate arrays `[x, y, z]`), for a
+    /// caller that knows which nodes moved: within one `changes.epoch` (a number the caller
+    /// changes whenever any node outside `changes.nodes` moves, or that list itself changes),
+    /// every frame differs from the one before only at `changes.nodes` (indices below the
+    /// node count). A chunk that last carried a
+    /// frame of the same epoch and size gets only those nodes rewritten (and checked for
+    /// finiteness); any other chunk gets the whole frame. The subscriber receives the same
+    /// frame either way. With a multirate simulation's region of 271 nodes in 16,224, most
+    /// frames then write 1.7 % of the positions.
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use lamina_bridge::{Bridge, BridgeConfig, NodeChanges, NodesPublisher};
+    ///
+    /// let bridge = Bridge::open(&BridgeConfig::with_prefix("doc_changed"))?;
+    /// let publisher = NodesPublisher::create(&bridge, 4)?;
+    /// let (x, y, mut z) = ([0.0, 0.01, 0.02, 0.03], [0.0; 4], [0.05; 4]);
+    /// let changes = NodeChanges { epoch: 7, nodes: &[1, 2] };
+    /// publisher.publish_finite_xyz_changed(0, 0, 0.0, [&x, &y, &z], changes)?;
+    /// // Only nodes 1 and 2 move while the epoch stays 7.
+    /// z[1] = 0.049;
+    /// publisher.publish_finite_xyz_changed(1, 1, 0.001, [&x, &y, &z], changes)?;
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// As [`NodesPublisher::publish_finite_xyz`], and
+    /// [`NodesPublishError::ChangedNodeOutOfRange`] for an index in `changed` not below the
+    /// node count.
+    pub fn publish_finite_xyz_changed(
+        &self,
+        sequence: u64,
+        tick: u64,
+        sim_time_s: f64,
+        [x, y, z]: [&[f32]; 3],
+        changes: NodeChanges<'_>,
+    ) -> Result<Option<usize>, NodesPublishError> {
+        let NodeChanges { epoch, nodes: changed } = changes;
+        let (node_count, count) = self.check_xyz(x, y, z)?;
+        if let Some(&index) = changed.iter().find(|&&i| i as usize >= node_count) {
+            return Err(NodesPublishError::ChangedNodeOutOfRange { index, node_count });
+        }
+        let mut sample = self.publisher.loan_slice_uninit(node_count)?;
+        let payload = sample.payload_mut();
+        let address = payload.as_ptr() as usize;
+        let finite = if self.chunks.holds(address, node_count, epoch) {
+            scatter_finite(x, y, z, changed, payload)
+        } else {
+            interleave_finite(x, y, z, payload)
+        };
+        if !finite {
+            // Some nodes hold this frame's values now: the chunk's content is not a frame.
+            self.chunks.forget(address);
+            return Ok(None);
+        }
+        self.chunks.remember(address, node_count, epoch);
+        // SAFETY: every record of the payload is initialised: either all were written just
+        // now, or the chunk holds a whole frame this publisher wrote there earlier (same
+        // address, size and epoch: `holds`), of which the changed nodes were rewritten.
+        // Subscribers map chunks read-only and iceoryx2 does not write payloads, so those
+        // bytes are still there.
+        let sample = unsafe { sample.assume_init() };
         self.send(sample, sequence, tick, sim_time_s, count).map(Some)
     }
 
@@ -348,7 +452,7 @@ impl NodesPublisher {
         fill: F,
     ) -> Result<usize, NodesPublishError> {
         let count = self.check(node_count)?;
-        let mut sample = self.publisher.loan_slice_uninit(node_count)?.write_from_fn(|_| [0.0; 3]);
+        let mut sample = self.loan(node_count)?.write_from_fn(|_| [0.0; 3]);
         fill(sample.payload_mut());
         self.send(sample, sequence, tick, sim_time_s, count)
     }

@@ -5,8 +5,8 @@ use core::time::Duration;
 
 use lamina_bridge::{
     Bridge, BridgeConfig, BridgeOpenError, ContactFeedback, FeedbackPublisher, FeedbackSubscriber, LayerRange,
-    NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary, TissueKind,
-    ToolCommand, ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
+    NodeChanges, NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary,
+    TissueKind, ToolCommand, ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
 };
 
 /// Watchdog for waits that must succeed; it bounds a hang, it is not a timing requirement.
@@ -91,6 +91,69 @@ fn nodes_from_coordinate_arrays_arrive_as_records_and_non_finite_ones_are_withhe
     assert_eq!(frame.positions().len(), n);
     assert!(frame.positions().iter().enumerate().all(|(i, p)| *p == position(3, i)));
     assert!(subscriber.try_receive().unwrap().is_none(), "no withheld or refused frame reached the subscriber");
+}
+
+/// Frames published with the nodes that changed: whichever chunk iceoryx2 lends, and whatever
+/// it carried before (a frame of another epoch, a frame written whole by another method, a
+/// withheld one), the subscriber receives the positions as the arrays hold them.
+#[test]
+fn nodes_with_changed_lists_arrive_whole_works() {
+    let b = bridge("nodes_changed");
+    let n = 1000;
+    let publisher = NodesPublisher::create(&b, n).unwrap();
+    let subscriber = NodesSubscriber::create(&b).unwrap();
+    let changed: Vec<u32> = (0..n as u32).filter(|i| i % 7 == 3).collect();
+    let (mut x, mut y, mut z) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+    let mut epoch = 0;
+    let mut received = 0;
+    for seq in 0..80u64 {
+        let value = |i: usize| [seq as f32 + i as f32 * 1e-3, -(i as f32), seq as f32 * 0.5];
+        // Every 10th frame a new epoch in which every node moves; the others move only the
+        // changed nodes.
+        let moving: Vec<usize> =
+            if seq % 10 == 0 { (0..n).collect() } else { changed.iter().map(|&i| i as usize).collect() };
+        epoch += u64::from(seq % 10 == 0);
+        for i in moving {
+            [x[i], y[i], z[i]] = value(i);
+        }
+        if seq % 10 == 5 {
+            // Another frame written whole into a chunk, received and dropped.
+            let sent = publisher.publish_from_fn(1000 + seq, 0, 0.0, n, |i| [i as f32; 3]).unwrap();
+            assert_eq!(sent, 1);
+            drop(subscriber.try_receive().unwrap().expect("the frame written whole"));
+        }
+        if seq % 10 == 7 {
+            // A changed node not finite: withheld; the frame after it is whole again.
+            let mut bad = z.clone();
+            bad[changed[5] as usize] = f32::NAN;
+            assert_eq!(
+                publisher.publish_finite_xyz_changed(
+                    seq,
+                    seq,
+                    0.0,
+                    [&x, &y, &bad],
+                    NodeChanges { epoch, nodes: &changed }
+                ),
+                Ok(None)
+            );
+        }
+        assert_eq!(
+            publisher.publish_finite_xyz_changed(seq, seq, 0.0, [&x, &y, &z], NodeChanges { epoch, nodes: &changed }),
+            Ok(Some(1))
+        );
+        let frame = subscriber.try_receive().unwrap().expect("the frame");
+        assert_eq!(frame.header().sequence, seq);
+        for (i, p) in frame.positions().iter().enumerate() {
+            assert_eq!(*p, [x[i], y[i], z[i]], "frame {seq}, node {i}");
+        }
+        received += 1;
+    }
+    assert_eq!(received, 80);
+    let err = publisher
+        .publish_finite_xyz_changed(0, 0, 0.0, [&x, &y, &z], NodeChanges { epoch, nodes: &[3, n as u32] })
+        .unwrap_err();
+    assert_eq!(err, NodesPublishError::ChangedNodeOutOfRange { index: n as u32, node_count: n });
+    assert!(subscriber.try_receive().unwrap().is_none(), "no refused frame reached the subscriber");
 }
 
 #[test]

@@ -1,8 +1,8 @@
 //! Which ticks write a node frame: one falls due every `node_frame_every` ticks, and a tick
 //! that is already late leaves it for the next.
 //!
-//! A node frame is a copy of every position into shared memory (195 KB for 16,224 nodes,
-//! 10-20 µs of a tick at p50). When the host slows the loop's CPU 5-10 times for a burst of
+//! A node frame is a copy of the positions into shared memory (195 KB for 16,224 nodes,
+//! 10-20 µs of a tick at p50 written whole). When the host slows the loop's CPU 5-10 times for a burst of
 //! ticks, that copy is what pushes a slow tick past its deadline. The haptic feedback is not
 //! gated: it goes out every tick.
 

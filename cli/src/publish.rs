@@ -4,13 +4,13 @@
 //! `lamina-bridge`).
 
 use lamina_bridge::{
-    Bridge, BridgeConfig, LayerRange, NodesPublisher, StatsPublisher, StatsSummary, SurfaceTopology, TissueKind,
-    Topology, TopologyPublisher, VolumeTopology, WireTool, now_ns,
+    Bridge, BridgeConfig, LayerRange, NodeChanges, NodesPublisher, StatsPublisher, StatsSummary, SurfaceTopology,
+    TissueKind, Topology, TopologyPublisher, VolumeTopology, WireTool, now_ns,
 };
 use lamina_core::model::{Model, Tissue};
 use lamina_core::real::Real;
 use lamina_core::scene::{DEVICE_TO_Y_UP_MODEL, ToolSettings, ToolSource, VisualSection};
-use lamina_core::solver::State;
+use lamina_core::solver::{FrameChanges, State};
 use lamina_rt::MonitorSummary;
 use std::any::Any;
 
@@ -160,15 +160,25 @@ impl CorePublisher {
         })
     }
 
-    /// Publishes the positions of `state` (m, as f32) for physics tick `tick`.
-    pub fn publish_nodes<T: Real>(&mut self, tick: u64, state: &State<T>) {
+    /// Publishes the positions of `state` (m, as f32) for physics tick `tick`; `changes`,
+    /// when the simulation knows them, names the only nodes that moved within its epoch
+    /// (then only those are written into a chunk that carried a frame of that epoch).
+    pub fn publish_nodes<T: Real>(&mut self, tick: u64, state: &State<T>, changes: Option<FrameChanges<'_>>) {
         let (x, y, z) = (&state.x.x, &state.x.y, &state.x.z);
         let n = x.len();
+        let (sequence, time) = (self.sequence, state.time);
         // Checked as written: a state with NaN or infinities (or beyond f32) is not published.
-        let result = match (as_f32(x), as_f32(y), as_f32(z)) {
+        let result = match (as_f32(x), as_f32(y), as_f32(z), changes) {
+            (Some(x), Some(y), Some(z), Some(c)) => self.nodes.publish_finite_xyz_changed(
+                sequence,
+                tick,
+                time,
+                [x, y, z],
+                NodeChanges { epoch: c.epoch, nodes: c.nodes },
+            ),
             // An f32 state goes out as it is, interleaved with vector permutes.
-            (Some(x), Some(y), Some(z)) => self.nodes.publish_finite_xyz(self.sequence, tick, state.time, x, y, z),
-            _ => self.nodes.publish_finite_from_fn(self.sequence, tick, state.time, n, |i| {
+            (Some(x), Some(y), Some(z), None) => self.nodes.publish_finite_xyz(sequence, tick, time, x, y, z),
+            _ => self.nodes.publish_finite_from_fn(sequence, tick, time, n, |i| {
                 [x[i].to_f64() as f32, y[i].to_f64() as f32, z[i].to_f64() as f32]
             }),
         };

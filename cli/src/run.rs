@@ -190,7 +190,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                         h.after_step(&sim, info.tick);
                     }
                     if frame_gate.write_now(info.tick, clock.now().saturating_sub(info.scheduled_ns)) {
-                        p.publish_nodes(info.tick, sim.state());
+                        p.publish_nodes(info.tick, sim.state(), sim.frame_changes());
                     }
                 });
             }

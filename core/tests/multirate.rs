@@ -118,6 +118,49 @@ fn press_and_slide(settings: Option<MultirateSettings>) -> (Simulation<f32>, Vec
     (sim, forces)
 }
 
+/// What a publisher relies on to rewrite only the region's nodes: between two ticks of the
+/// same `frame_changes` epoch, every node outside its list keeps its position bit for bit,
+/// through exchanges with the bulk and regions taken about a sliding tool.
+#[test]
+fn multirate_frame_changes_name_every_node_that_moved_works() {
+    let (mut sim, origin) = default_scene_with_tool(IntegratorKind::ImplicitFactored, multirate(0.05, 4));
+    assert!(sim.frame_changes().is_some());
+    let (mut same_epoch, mut epochs, mut region_moved) = (0, 0, 0);
+    let mut before = sim.state().x.clone();
+    let mut epoch = sim.frame_changes().unwrap().epoch;
+    for frame in 1..=600 {
+        // Pressed 4 mm, then slid 6 cm along the limb: the region moves with it.
+        let depth = 0.004 * (frame as f64 / 100.0).min(1.0);
+        let along = 0.06 * ((frame as f64 - 100.0) / 400.0).clamp(0.0, 1.0);
+        sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2] + along];
+        sim.step();
+        let changes = sim.frame_changes().unwrap();
+        let x = &sim.state().x;
+        if changes.epoch == epoch {
+            same_epoch += 1;
+            let mut listed = vec![false; x.len()];
+            for &i in changes.nodes {
+                listed[i as usize] = true;
+            }
+            for i in (0..x.len()).filter(|&i| !listed[i]) {
+                let (p, q) = (before.get_f64(i), x.get_f64(i));
+                assert_eq!(p, q, "tick {frame}: node {i} moved outside the region within epoch {epoch}");
+            }
+            region_moved +=
+                usize::from(changes.nodes.iter().any(|&i| before.get_f64(i as usize) != x.get_f64(i as usize)));
+        } else {
+            epochs += 1;
+        }
+        epoch = changes.epoch;
+        before = x.clone();
+    }
+    let status = sim.multirate_status().unwrap();
+    // Exchanges every 4 ticks begin a new epoch each: three ticks of four are checked.
+    assert!(status.recentres >= 2, "{status:?}");
+    assert!(epochs >= 150 && same_epoch >= 400, "{epochs} epochs, {same_epoch} ticks within one");
+    assert!(region_moved >= 400, "the region's nodes moved on {region_moved} of them");
+}
+
 #[test]
 fn multirate_region_follows_a_sliding_tool_works() {
     let (single, single_forces) = press_and_slide(None);

@@ -40,7 +40,9 @@ pub use dynamics::{StageCounters, State};
 pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};
 pub use guard::{GuardEvent, GuardReason, Recovery};
 pub use implicit_factored::ImplicitFactored;
-pub use multirate::{LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus};
+pub use multirate::{
+    FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus,
+};
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
 pub use simulation::{GuardTotals, Simulation, SimulationBuildError};

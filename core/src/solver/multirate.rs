@@ -516,6 +516,18 @@ pub(crate) fn build_bulk<T: Real>(
     super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), effects.clone(), known)
 }
 
+/// Which nodes of a multirate simulation's state move from one tick to the next
+/// ([`Simulation::frame_changes`](super::Simulation::frame_changes)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameChanges<'a> {
+    /// Changes whenever nodes outside `nodes` move (an exchange with the bulk, a region
+    /// taken, a write through `state_mut`): between two ticks of the same epoch, only
+    /// `nodes` differ.
+    pub epoch: u64,
+    /// The region's nodes, model indices.
+    pub nodes: &'a [u32],
+}
+
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.
 struct Packet<T: Real> {
     /// Time of the region's state, s.
@@ -632,6 +644,9 @@ pub(crate) struct Multirate<T: Real> {
     /// The whole model's state: the region's nodes as of the last tick, the others as the
     /// bulk left them at the last exchange, held nodes as built.
     pub(crate) full: State<T>,
+    /// Counts the times nodes of `full` outside the region's moved (exchanges, a new region,
+    /// the caller's writes): within one epoch only the region's nodes change.
+    pub(crate) frame_epoch: u64,
     /// The whole model's rest positions, m.
     pub(crate) full_rest: Vec3s<T>,
     /// The effects as the caller sees them (model node indices).
@@ -744,6 +759,7 @@ impl<T: Real> Multirate<T> {
             refused_at: None,
             full_rest: full.x.clone(),
             full,
+            frame_epoch: 0,
             effects,
             packet: Some(packet),
             to_bulk,
@@ -805,6 +821,7 @@ impl<T: Real> Multirate<T> {
     /// tool when one came back, for the caller to take (the ring is then left to
     /// [`adopt`](Self::adopt)). Allocates nothing.
     pub fn receive(&mut self, region: &mut State<T>) -> Option<Box<Relocation<T>>> {
+        self.frame_epoch += 1;
         let packet = match self.packet.take() {
             Some(p) => Some(p),
             None => self.wait_for_bulk(),
@@ -860,6 +877,7 @@ impl<T: Real> Multirate<T> {
     /// `relocation`) and sets `region`, the new region's state, from the whole state. Called
     /// between [`receive`](Self::receive) and [`send`](Self::send). Allocates nothing.
     pub fn adopt(&mut self, relocation: &mut Relocation<T>, region: &mut State<T>) {
+        self.frame_epoch += 1;
         std::mem::swap(&mut self.layout, &mut relocation.layout);
         gather(&self.full.x, &self.layout.partition.kept, &mut region.x);
         gather(&self.full.v, &self.layout.partition.kept, &mut region.v);
@@ -904,6 +922,12 @@ impl<T: Real> Multirate<T> {
         if let Some(t) = &self.bulk_thread {
             t.thread().unpark();
         }
+    }
+
+    /// The whole state's epoch and the nodes (model indices) that move within it: the
+    /// region's, taken into the whole state after every tick.
+    pub fn frame_changes(&self) -> FrameChanges<'_> {
+        FrameChanges { epoch: self.frame_epoch, nodes: &self.layout.partition.inner }
     }
 
     /// After a tick of the region: the whole state takes the region's nodes. Allocates

@@ -20,8 +20,8 @@ use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
 use super::multirate::{
-    DEFER_BUILD_EXCHANGES, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate, MultirateSettings,
-    MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk, build_region,
+    DEFER_BUILD_EXCHANGES, FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate,
+    MultirateSettings, MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk, build_region,
 };
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
@@ -356,7 +356,10 @@ impl<T: Real> Simulation<T> {
     pub fn state_mut(&mut self) -> &mut State<T> {
         self.verlet.valid_at = None;
         match &mut self.multirate {
-            Some(m) => &mut m.full,
+            Some(m) => {
+                m.frame_epoch += 1;
+                &mut m.full
+            }
             None => &mut self.state,
         }
     }
@@ -444,6 +447,14 @@ impl<T: Real> Simulation<T> {
     /// The real-time implicit integrator, when it is the integrator.
     pub fn implicit_factored(&self) -> Option<&ImplicitFactored<T>> {
         self.factored.as_ref()
+    }
+
+    /// With multirate stepping, which nodes of [`state`](Self::state) the next ticks move:
+    /// while the epoch stays, only the region's (a publisher then rewrites only those, see
+    /// `lamina_bridge::NodesPublisher::publish_finite_xyz_changed`). `None` single-rate,
+    /// where every step moves every free node.
+    pub fn frame_changes(&self) -> Option<FrameChanges<'_>> {
+        self.multirate.as_ref().map(Multirate::frame_changes)
     }
 
     /// With multirate stepping, the region's and the bulk's sizes and the bulk thread's counts.
