@@ -208,7 +208,8 @@ pub struct NodesPublisher {
 /// The nodes that move within an epoch, for [`NodesPublisher::publish_finite_xyz_changed`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NodeChanges<'a> {
-    /// The caller's count of the times nodes outside `nodes` moved (or `nodes` changed).
+    /// The caller's count of the times nodes outside `nodes` moved (or `nodes` changed);
+    /// two sources of frames publishing through one publisher must never share an epoch.
     pub epoch: u64,
     /// Indices of the nodes that may differ from one frame of the epoch to the next.
     pub nodes: &'a [u32],

@@ -52,7 +52,7 @@ use crate::model::{Model, NodeKind};
 use crate::real::Real;
 use crossbeam::queue::ArrayQueue;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -516,6 +516,10 @@ pub(crate) fn build_bulk<T: Real>(
     super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), effects.clone(), known)
 }
 
+/// The first frame epoch of the next multirate simulation built in this process; each takes
+/// 2^32 epochs.
+static FRAME_EPOCHS: AtomicU64 = AtomicU64::new(0);
+
 /// Which nodes of a multirate simulation's state move from one tick to the next
 /// ([`Simulation::frame_changes`](super::Simulation::frame_changes)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -759,7 +763,9 @@ impl<T: Real> Multirate<T> {
             refused_at: None,
             full_rest: full.x.clone(),
             full,
-            frame_epoch: 0,
+            // Apart from every other multirate simulation's in this process, so a publisher
+            // that outlives one never takes another's epoch for its own.
+            frame_epoch: FRAME_EPOCHS.fetch_add(1 << 32, Ordering::Relaxed),
             effects,
             packet: Some(packet),
             to_bulk,
@@ -821,7 +827,7 @@ impl<T: Real> Multirate<T> {
     /// tool when one came back, for the caller to take (the ring is then left to
     /// [`adopt`](Self::adopt)). Allocates nothing.
     pub fn receive(&mut self, region: &mut State<T>) -> Option<Box<Relocation<T>>> {
-        self.frame_epoch += 1;
+        self.frame_epoch = self.frame_epoch.wrapping_add(1);
         let packet = match self.packet.take() {
             Some(p) => Some(p),
             None => self.wait_for_bulk(),
@@ -877,7 +883,7 @@ impl<T: Real> Multirate<T> {
     /// `relocation`) and sets `region`, the new region's state, from the whole state. Called
     /// between [`receive`](Self::receive) and [`send`](Self::send). Allocates nothing.
     pub fn adopt(&mut self, relocation: &mut Relocation<T>, region: &mut State<T>) {
-        self.frame_epoch += 1;
+        self.frame_epoch = self.frame_epoch.wrapping_add(1);
         std::mem::swap(&mut self.layout, &mut relocation.layout);
         gather(&self.full.x, &self.layout.partition.kept, &mut region.x);
         gather(&self.full.v, &self.layout.partition.kept, &mut region.v);

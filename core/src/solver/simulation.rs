@@ -357,7 +357,7 @@ impl<T: Real> Simulation<T> {
         self.verlet.valid_at = None;
         match &mut self.multirate {
             Some(m) => {
-                m.frame_epoch += 1;
+                m.frame_epoch = m.frame_epoch.wrapping_add(1);
                 &mut m.full
             }
             None => &mut self.state,
