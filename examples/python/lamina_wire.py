@@ -399,7 +399,9 @@ def _service(node, prefix: str, name: str, payload, header, buffer_size: int):
 
 
 def nodes_service(node, prefix: str = DEFAULT_PREFIX):
-    """`<prefix>/nodes`: `[[f32; 3]]` positions with a `NodesHeader`, every tick."""
+    """`<prefix>/nodes`: `[[f32; 3]]` positions with a `NodesHeader`, every tick (every
+    `node_frame_every` ticks when the scene says so; a tick already late leaves its frame to
+    the next, and the header's `tick` says which tick a frame follows)."""
     return _service(node, prefix, "nodes", iox2.Slice[Position], NodesHeader, NODES_BUFFER_SIZE)
 
 
