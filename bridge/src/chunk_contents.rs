@@ -8,7 +8,6 @@
 //! times nodes outside its `changed` list moved), only the changed nodes need writing.
 
 use core::cell::Cell;
-use core::mem::MaybeUninit;
 
 /// Chunks remembered; more than the two or three a publisher cycles through.
 const REMEMBERED: usize = 8;
@@ -67,27 +66,6 @@ impl ChunkContents {
     }
 }
 
-/// Writes `out[i] = [x[i], y[i], z[i]]` for each `i` in `changed` and returns whether all
-/// those coordinates are finite. Every index must be below `out.len()`, and `x`, `y`, `z` at
-/// least that long (the caller checks).
-pub(crate) fn scatter_finite(
-    x: &[f32],
-    y: &[f32],
-    z: &[f32],
-    changed: &[u32],
-    out: &mut [MaybeUninit<[f32; 3]>],
-) -> bool {
-    // v · 0 is ±0 for a finite v and NaN for NaN or an infinity; a sum of zeros stays 0.
-    let mut sum = 0.0f32;
-    for &i in changed {
-        let i = i as usize;
-        let (a, b, c) = (x[i], y[i], z[i]);
-        sum += a * 0.0 + b * 0.0 + c * 0.0;
-        out[i].write([a, b, c]);
-    }
-    sum == 0.0
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,17 +93,5 @@ mod tests {
         }
         assert!(!c.holds(0x100, 5, 1) && !c.holds(0x200, 5, 1), "the two oldest went");
         assert!((3..=REMEMBERED + 2).all(|a| c.holds(a * 0x100, 5, 1)));
-    }
-
-    #[test]
-    fn scatter_writes_only_the_changed_nodes_and_checks_them_works() {
-        let (x, y, z) = ([1.0f32, 2.0, 3.0, 4.0], [5.0f32; 4], [6.0f32, f32::NAN, 7.0, 8.0]);
-        let mut out = [MaybeUninit::new([0.0f32; 3]); 4];
-        assert!(scatter_finite(&x, &y, &z, &[0, 3], &mut out));
-        // SAFETY: every entry was initialised above.
-        let got: Vec<[f32; 3]> = out.iter().map(|o| unsafe { o.assume_init() }).collect();
-        assert_eq!(got, [[1.0, 5.0, 6.0], [0.0; 3], [0.0; 3], [4.0, 5.0, 8.0]]);
-        assert!(!scatter_finite(&x, &y, &z, &[1], &mut out), "node 1's z is NaN");
-        assert!(scatter_finite(&x, &y, &z, &[], &mut out), "nothing changed");
     }
 }

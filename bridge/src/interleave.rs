@@ -1,5 +1,6 @@
 //! Positions from three coordinate arrays (the solver's layout) into a node frame's
-//! `[x, y, z]` records, checked for finiteness in the same pass.
+//! `[x, y, z]` records, checked for finiteness in the same pass: every node, or the listed
+//! nodes of a frame whose others are already in place.
 //!
 //! The solver keeps x, y and z in arrays of their own; the wire carries one `[f32; 3]` per
 //! node. Interleaving them one node at a time takes three scalar stores per node; the vector
@@ -30,13 +31,39 @@ pub(crate) fn interleave_finite(x: &[f32], y: &[f32], z: &[f32], out: &mut [Mayb
     interleave_scalar(x, y, z, out)
 }
 
+/// ±0 for a finite node and NaN when a coordinate is NaN or infinite (v · 0 is ±0 for a
+/// finite v): a sum of these stays 0 exactly when every node summed is finite.
+#[inline(always)]
+fn zero_if_finite(a: f32, b: f32, c: f32) -> f32 {
+    a * 0.0 + b * 0.0 + c * 0.0
+}
+
 /// The one-node-at-a-time loop (and the vector paths' tail).
 fn interleave_scalar(x: &[f32], y: &[f32], z: &[f32], out: &mut [MaybeUninit<[f32; 3]>]) -> bool {
-    // v · 0 is ±0 for a finite v and NaN for NaN or an infinity; a sum of zeros stays 0.
     let mut sum = 0.0f32;
     for (((o, &a), &b), &c) in out.iter_mut().zip(x).zip(y).zip(z) {
-        sum += a * 0.0 + b * 0.0 + c * 0.0;
+        sum += zero_if_finite(a, b, c);
         o.write([a, b, c]);
+    }
+    sum == 0.0
+}
+
+/// Writes `out[i] = [x[i], y[i], z[i]]` for each `i` in `changed` and returns whether all
+/// those coordinates are finite. Every index must be below `out.len()`, and `x`, `y`, `z` at
+/// least that long (the caller checks).
+pub(crate) fn scatter_finite(
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    changed: &[u32],
+    out: &mut [MaybeUninit<[f32; 3]>],
+) -> bool {
+    let mut sum = 0.0f32;
+    for &i in changed {
+        let i = i as usize;
+        let (a, b, c) = (x[i], y[i], z[i]);
+        sum += zero_if_finite(a, b, c);
+        out[i].write([a, b, c]);
     }
     sum == 0.0
 }
@@ -249,5 +276,17 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn scatter_writes_only_the_changed_nodes_and_checks_them_works() {
+        let (x, y, z) = ([1.0f32, 2.0, 3.0, 4.0], [5.0f32; 4], [6.0f32, f32::NAN, 7.0, 8.0]);
+        let mut out = [MaybeUninit::new([0.0f32; 3]); 4];
+        assert!(scatter_finite(&x, &y, &z, &[0, 3], &mut out));
+        // SAFETY: every entry was initialised above.
+        let got: Vec<[f32; 3]> = out.iter().map(|o| unsafe { o.assume_init() }).collect();
+        assert_eq!(got, [[1.0, 5.0, 6.0], [0.0; 3], [0.0; 3], [4.0, 5.0, 8.0]]);
+        assert!(!scatter_finite(&x, &y, &z, &[1], &mut out), "node 1's z is NaN");
+        assert!(scatter_finite(&x, &y, &z, &[], &mut out), "nothing changed");
     }
 }

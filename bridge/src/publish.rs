@@ -43,9 +43,9 @@ use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::sample_mut_uninit::SampleMutUninit;
 
 use crate::bridge::Bridge;
-use crate::chunk_contents::{ChunkContents, scatter_finite};
+use crate::chunk_contents::ChunkContents;
 use crate::domain::{PrefixLock, PrefixLockError};
-use crate::interleave::interleave_finite;
+use crate::interleave::{interleave_finite, scatter_finite};
 use crate::services::{
     Message, MessageService, NodesService, PortCreateError, TopologyService, WakeService, open_message_service,
     open_nodes_service, open_topology_service, open_wake_service,

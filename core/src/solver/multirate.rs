@@ -827,6 +827,8 @@ impl<T: Real> Multirate<T> {
     /// tool when one came back, for the caller to take (the ring is then left to
     /// [`adopt`](Self::adopt)). Allocates nothing.
     pub fn receive(&mut self, region: &mut State<T>) -> Option<Box<Relocation<T>>> {
+        // A new epoch for the bulk's nodes, and for a region taken at this exchange
+        // (`adopt` is only called after `receive`).
         self.frame_epoch = self.frame_epoch.wrapping_add(1);
         let packet = match self.packet.take() {
             Some(p) => Some(p),
@@ -883,7 +885,6 @@ impl<T: Real> Multirate<T> {
     /// `relocation`) and sets `region`, the new region's state, from the whole state. Called
     /// between [`receive`](Self::receive) and [`send`](Self::send). Allocates nothing.
     pub fn adopt(&mut self, relocation: &mut Relocation<T>, region: &mut State<T>) {
-        self.frame_epoch = self.frame_epoch.wrapping_add(1);
         std::mem::swap(&mut self.layout, &mut relocation.layout);
         gather(&self.full.x, &self.layout.partition.kept, &mut region.x);
         gather(&self.full.v, &self.layout.partition.kept, &mut region.v);
