@@ -241,7 +241,10 @@ fn node_frames_every_fifth_tick_go_out_on_it_or_the_next_tick_on_time_works() {
     assert_eq!(counts["published"].as_u64(), Some(published), "{counts}");
     let shed = counts["shed"].as_u64().expect("shed frames counted");
     assert_eq!(published + shed, on_fifth, "every frame that fell due was written or shed: {counts}");
-    assert!(published * 2 > on_fifth, "{published} of {on_fifth} due frames written: {counts}");
+    // Every tick a frame fell due on that ended within the cutoff wrote one (however loaded
+    // the machine: a CI run had more than half its ticks past the cutoff).
+    let on_time_due = rows.iter().filter(|r| r.tick % 5 == 0 && r.lateness_ns + r.compute_ns <= cutoff_ns).count();
+    assert!(published >= on_time_due as u64, "{published} written, {on_time_due} due ticks on time: {counts}");
     assert!(frames.len() as u64 * 2 > published, "{} of {published} frames received", frames.len());
     // Frames arrive in order, each after the tick it fell due on or later, never two for one
     // due tick; one written late means every tick from its due tick to the one before was
