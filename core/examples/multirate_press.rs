@@ -2,9 +2,12 @@
 //! 8 mm into the skin over 0.5 s and held to 2 s, the force on it and where every node ends.
 //!
 //! ```text
-//! cargo run --release -p lamina-core --example multirate_press -- [GRIDS] [RATIOS] [RADIUS_M]
+//! cargo run --release -p lamina-core --example multirate_press -- [GRIDS] [RATIOS] [RADIUS_M] [ITERATIONS]
 //! cargo run --release -p lamina-core --example multirate_press -- 48x12,96x24,160x40 8,20 0.03
 //! ```
+//!
+//! `ITERATIONS` sets `factored_iterations` (PCG iterations per step, region and bulk alike);
+//! by default the scene's.
 //!
 //! Prints one table row per grid and ratio (docs/accuracy-and-stability.md holds a run).
 
@@ -27,7 +30,11 @@ fn limb(columns: u32, rows: u32) -> Result<Scene, String> {
 
 /// Presses the tool into `scene`'s limb, single-rate or multirate; the simulation and the
 /// vertical force on the tool at every tick, N.
-fn press(scene: &Scene, multirate: Option<(f64, u32)>) -> Result<(Simulation<f32>, Vec<f64>), String> {
+fn press(
+    scene: &Scene,
+    multirate: Option<(f64, u32)>,
+    iterations: Option<u32>,
+) -> Result<(Simulation<f32>, Vec<f64>), String> {
     let model = scene.build_model().map_err(|e| e.to_string())?;
     let tool = scene.tool.ok_or("the scene has no tool")?;
     let ToolSource::Haptics { device_origin: origin, .. } = tool.source else {
@@ -35,6 +42,7 @@ fn press(scene: &Scene, multirate: Option<(f64, u32)>) -> Result<(Simulation<f32
     };
     let mut params = scene.solver.clone();
     params.integrator = IntegratorKind::ImplicitFactored;
+    params.factored_iterations = iterations.unwrap_or(params.factored_iterations);
     params.multirate = multirate.map(|(radius, ratio)| MultirateSettings {
         centre: origin,
         radius,
@@ -76,6 +84,7 @@ fn main() -> Result<(), String> {
     let grids = args.first().map_or("48x12,96x24,160x40", String::as_str);
     let ratios = args.get(1).map_or("8,20", String::as_str);
     let radius: f64 = args.get(2).map_or(Ok(0.03), |r| r.parse()).map_err(|e| format!("radius: {e}"))?;
+    let iterations: Option<u32> = args.get(3).map(|i| i.parse()).transpose().map_err(|e| format!("iterations: {e}"))?;
     println!(
         "| grid | nodes | ratio | region nodes | force at 2 s, N (single-rate) | largest force difference from 0.1 s | largest node difference at 2 s | nodes over 1 mm off | largest coupling gap |"
     );
@@ -84,10 +93,10 @@ fn main() -> Result<(), String> {
         let (c, r) = grid.split_once('x').ok_or_else(|| format!("grid '{grid}': COLUMNSxROWS"))?;
         let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("grid '{grid}': {e}"));
         let scene = limb(parse(c)?, parse(r)?)?;
-        let (single, single_forces) = press(&scene, None)?;
+        let (single, single_forces) = press(&scene, None, iterations)?;
         for ratio in ratios.split(',') {
             let ratio: u32 = ratio.trim().parse().map_err(|e| format!("ratio '{ratio}': {e}"))?;
-            let (multi, forces) = press(&scene, Some((radius, ratio)))?;
+            let (multi, forces) = press(&scene, Some((radius, ratio)), iterations)?;
             let status = multi.multirate_status().ok_or("multirate is off")?;
             let worst = forces
                 .iter()
