@@ -32,6 +32,10 @@ pub struct CapacityOptions {
     pub out: PathBuf,
     /// SCHED_FIFO priority for the measuring thread and its workers (0: leave as is).
     pub fifo_priority: i32,
+    /// Radius of the multirate configuration's region about the tool, m. Default 0.03.
+    pub region_radius_m: f64,
+    /// Ticks per bulk step of the multirate configuration. Default 20.
+    pub ratio: u32,
 }
 
 /// Name of the generated limbs in the table.
@@ -46,9 +50,6 @@ const ROUND_TICKS: usize = 25;
 const PROBE_TICKS: usize = 3;
 /// Name of the multirate configurations (`implicit_factored` with `[solver.multirate]`).
 const MULTIRATE: &str = "multirate";
-/// Multirate region about the tool, m, and ticks per bulk step, on every limb with a tool.
-const MULTIRATE_RADIUS_M: f64 = 0.03;
-const MULTIRATE_RATIO: u32 = 20;
 /// One tick's period, for pacing the multirate configurations (their bulk steps in real time).
 const TICK: Duration = Duration::from_millis(1);
 
@@ -139,8 +140,8 @@ fn configurations(scene: &Scene, model: &Model, opts: &CapacityOptions) -> Vec<T
     {
         let settings = MultirateSettings {
             centre: origin,
-            radius: MULTIRATE_RADIUS_M,
-            ratio: MULTIRATE_RATIO,
+            radius: opts.region_radius_m,
+            ratio: opts.ratio,
             ..MultirateSettings::default()
         };
         variants.push((IntegratorKind::ImplicitFactored, 2, Some(settings)));

@@ -24,7 +24,7 @@ mod yardstick_c;
 mod yardstick_cmd;
 
 use clap::{Parser, Subcommand};
-use lamina_core::solver::{IntegratorKind, SimdLevel};
+use lamina_core::solver::{IntegratorKind, MAX_MULTIRATE_RATIO, SimdLevel};
 use lamina_core::yardstick::LatticeSize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -289,6 +289,13 @@ enum BenchCommand {
         /// SCHED_FIFO priority of the measuring thread and its workers (0 leaves it).
         #[arg(long, default_value_t = 50)]
         fifo_priority: i32,
+        /// Radius of the multirate configuration's region about the tool, m (its tick costs
+        /// about what the region's nodes do).
+        #[arg(long, default_value_t = 0.03)]
+        region_radius: f64,
+        /// Ticks per bulk step of the multirate configuration, 2 to 1,000.
+        #[arg(long, default_value_t = 20)]
+        ratio: u32,
         /// Directory for capacity.csv and capacity.png.
         #[arg(long, default_value = "capacity")]
         out: PathBuf,
@@ -402,7 +409,19 @@ fn run(command: Command) -> Result<(), String> {
             bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
         }
         Command::Bench {
-            what: BenchCommand::Capacity { grids, scenes, solvers, threads, ticks, max_seconds, fifo_priority, out },
+            what:
+                BenchCommand::Capacity {
+                    grids,
+                    scenes,
+                    solvers,
+                    threads,
+                    ticks,
+                    max_seconds,
+                    fifo_priority,
+                    region_radius,
+                    ratio,
+                    out,
+                },
         } => {
             let opts = bench_capacity::CapacityOptions {
                 grids: parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?,
@@ -416,6 +435,16 @@ fn run(command: Command) -> Result<(), String> {
                     max_seconds
                 } else {
                     return Err(format!("--max-seconds {max_seconds}: between 0.1 and 3600"));
+                },
+                region_radius_m: if region_radius.is_finite() && region_radius > 0.0 {
+                    region_radius
+                } else {
+                    return Err(format!("--region-radius {region_radius}: a length in m greater than 0"));
+                },
+                ratio: if (2..=MAX_MULTIRATE_RATIO).contains(&ratio) {
+                    ratio
+                } else {
+                    return Err(format!("--ratio {ratio}: from 2 to {MAX_MULTIRATE_RATIO}"));
                 },
                 out,
                 fifo_priority,

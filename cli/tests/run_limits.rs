@@ -126,6 +126,22 @@ fn run_with_absurd_length_or_ring_is_refused_fails() {
 }
 
 #[test]
+fn bench_capacity_with_an_absurd_region_or_ratio_is_refused_fails() {
+    for (args, named) in [
+        (&["--region-radius", "NaN"][..], "--region-radius NaN"),
+        (&["--region-radius=-0.01"][..], "--region-radius -0.01"),
+        (&["--region-radius", "0"][..], "--region-radius 0"),
+        (&["--ratio", "1"][..], "--ratio 1"),
+        (&["--ratio", "1001"][..], "--ratio 1001"),
+    ] {
+        // Refused before any model is built: the command returns at once.
+        let out = Command::new(env!("CARGO_BIN_EXE_lamina")).args(["bench", "capacity"]).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(named), "{args:?}: {err}");
+    }
+}
+
+#[test]
 fn diverged_state_with_guard_off_is_reported_and_never_published_fails() {
     // A drag handle pulling toward a point 1 km away, symplectic Euler, guard off: the state
     // goes non-finite (after 0.35-0.45 s simulated). The run says so, publishes no such frame
