@@ -33,14 +33,15 @@ impl NodeFrameGate {
         Self { every: u64::from(every.max(1)), cutoff_ns, due_since: None, deferred: 0, shed: 0 }
     }
 
-    /// Whether tick `tick`, `elapsed_ns` after its scheduled start, writes a node frame now.
-    /// Call it once per tick, ticks in increasing order.
-    pub fn write_now(&mut self, tick: u64, elapsed_ns: u64) -> bool {
+    /// Whether tick `tick` writes a node frame now; `elapsed_ns` gives the time since the
+    /// tick's scheduled start, ns, and is called only on a tick with a frame due. Call it once
+    /// per tick, ticks in increasing order.
+    pub fn write_now(&mut self, tick: u64, elapsed_ns: impl FnOnce() -> u64) -> bool {
         if tick.is_multiple_of(self.every) && self.due_since.replace(tick).is_some() {
             self.shed += 1;
         }
         let Some(due) = self.due_since else { return false };
-        if elapsed_ns > self.cutoff_ns {
+        if elapsed_ns() > self.cutoff_ns {
             return false;
         }
         if due != tick {
@@ -76,7 +77,7 @@ mod tests {
     #[test]
     fn frames_on_time_go_out_on_their_ticks_works() {
         let mut gate = NodeFrameGate::new(5, 500_000);
-        let written: Vec<u64> = (0..23).filter(|&t| gate.write_now(t, ON_TIME)).collect();
+        let written: Vec<u64> = (0..23).filter(|&t| gate.write_now(t, || ON_TIME)).collect();
         assert_eq!(written, [0, 5, 10, 15, 20]);
         assert_eq!((gate.deferred(), gate.shed()), (0, 0));
     }
@@ -86,7 +87,8 @@ mod tests {
         let mut gate = NodeFrameGate::new(5, 500_000);
         // Ticks 5, 6 and 7 late: frame 5 goes out on tick 8.
         let late = |t: u64| (5..=7).contains(&t);
-        let written: Vec<u64> = (0..12).filter(|&t| gate.write_now(t, if late(t) { LATE } else { ON_TIME })).collect();
+        let written: Vec<u64> =
+            (0..12).filter(|&t| gate.write_now(t, || if late(t) { LATE } else { ON_TIME })).collect();
         assert_eq!(written, [0, 8, 10]);
         assert_eq!((gate.deferred(), gate.shed()), (1, 0));
     }
@@ -97,13 +99,13 @@ mod tests {
         let mut gate = NodeFrameGate::new(1, 500_000);
         let late = [2u64, 3, 7];
         let written: Vec<u64> =
-            (0..10).filter(|&t| gate.write_now(t, if late.contains(&t) { LATE } else { ON_TIME })).collect();
+            (0..10).filter(|&t| gate.write_now(t, || if late.contains(&t) { LATE } else { ON_TIME })).collect();
         assert_eq!(written, [0, 1, 4, 5, 6, 8, 9]);
         assert_eq!((gate.deferred(), gate.shed()), (0, 3));
         // Every 4th: ticks 4 to 8 late, frame 4 never written, frame 8 written on tick 9.
         let mut gate = NodeFrameGate::new(4, 500_000);
         let written: Vec<u64> =
-            (0..13).filter(|&t| gate.write_now(t, if (4..=8).contains(&t) { LATE } else { ON_TIME })).collect();
+            (0..13).filter(|&t| gate.write_now(t, || if (4..=8).contains(&t) { LATE } else { ON_TIME })).collect();
         assert_eq!(written, [0, 9, 12]);
         assert_eq!((gate.deferred(), gate.shed()), (1, 1));
     }
@@ -111,7 +113,7 @@ mod tests {
     #[test]
     fn a_frame_due_at_the_end_counts_as_shed_works() {
         let mut gate = NodeFrameGate::new(3, 500_000);
-        let written: Vec<u64> = (0..5).filter(|&t| gate.write_now(t, if t >= 3 { LATE } else { ON_TIME })).collect();
+        let written: Vec<u64> = (0..5).filter(|&t| gate.write_now(t, || if t >= 3 { LATE } else { ON_TIME })).collect();
         assert_eq!(written, [0]);
         assert_eq!(gate.shed(), 1);
         // Published plus shed is every frame that fell due.
@@ -119,9 +121,23 @@ mod tests {
     }
 
     #[test]
+    fn the_time_is_asked_only_on_ticks_with_a_frame_due_works() {
+        // Every 4th tick, tick 4 late: the time is asked on ticks 0, 4, 5 and 8 only.
+        let mut gate = NodeFrameGate::new(4, 500_000);
+        let mut asked = Vec::new();
+        for t in 0..10u64 {
+            gate.write_now(t, || {
+                asked.push(t);
+                if t == 4 { LATE } else { ON_TIME }
+            });
+        }
+        assert_eq!(asked, [0, 4, 5, 8]);
+    }
+
+    #[test]
     fn the_cutoff_itself_is_on_time_works() {
         let mut gate = NodeFrameGate::new(1, 500_000);
-        assert!(gate.write_now(0, 500_000));
-        assert!(!gate.write_now(1, 500_001));
+        assert!(gate.write_now(0, || 500_000));
+        assert!(!gate.write_now(1, || 500_001));
     }
 }

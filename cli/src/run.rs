@@ -189,7 +189,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                     if let Some(h) = p.haptic.as_mut() {
                         h.after_step(&sim, info.tick);
                     }
-                    if frame_gate.write_now(info.tick, clock.now().saturating_sub(info.scheduled_ns)) {
+                    if frame_gate.write_now(info.tick, || clock.now().saturating_sub(info.scheduled_ns)) {
                         p.publish_nodes(info.tick, sim.state(), sim.frame_changes());
                     }
                 });
