@@ -6,8 +6,8 @@
 //! cargo run --release -p lamina-core --example multirate_press -- 48x12,96x24,160x40 8,20 0.03
 //! ```
 //!
-//! `ITERATIONS` sets `factored_iterations` (PCG iterations per step, region and bulk alike);
-//! by default the scene's.
+//! `ITERATIONS` sets `factored_iterations` (PCG iterations per step, region and bulk alike,
+//! 1 to 64); by default the scene's.
 //!
 //! Prints one table row per grid and ratio (docs/accuracy-and-stability.md holds a run).
 
@@ -84,7 +84,14 @@ fn main() -> Result<(), String> {
     let grids = args.first().map_or("48x12,96x24,160x40", String::as_str);
     let ratios = args.get(1).map_or("8,20", String::as_str);
     let radius: f64 = args.get(2).map_or(Ok(0.03), |r| r.parse()).map_err(|e| format!("radius: {e}"))?;
-    let iterations: Option<u32> = args.get(3).map(|i| i.parse()).transpose().map_err(|e| format!("iterations: {e}"))?;
+    let iterations = match args.get(3) {
+        None => None,
+        // The scene file's bounds for `factored_iterations`.
+        Some(i) => match i.parse::<u32>() {
+            Ok(n) if (1..=64).contains(&n) => Some(n),
+            _ => return Err(format!("iterations '{i}': a whole number from 1 to 64")),
+        },
+    };
     println!(
         "| grid | nodes | ratio | region nodes | force at 2 s, N (single-rate) | largest force difference from 0.1 s | largest node difference at 2 s | nodes over 1 mm off | largest coupling gap |"
     );
