@@ -84,14 +84,8 @@ fn main() -> Result<(), String> {
     let grids = args.first().map_or("48x12,96x24,160x40", String::as_str);
     let ratios = args.get(1).map_or("8,20", String::as_str);
     let radius: f64 = args.get(2).map_or(Ok(0.03), |r| r.parse()).map_err(|e| format!("radius: {e}"))?;
-    let iterations = match args.get(3) {
-        None => None,
-        // The scene file's bounds for `factored_iterations`.
-        Some(i) => match i.parse::<u32>() {
-            Ok(n) if (1..=64).contains(&n) => Some(n),
-            _ => return Err(format!("iterations '{i}': a whole number from 1 to 64")),
-        },
-    };
+    // Bounded (1 to 64) by `Simulation::new`, which refuses others by name.
+    let iterations: Option<u32> = args.get(3).map(|i| i.parse()).transpose().map_err(|e| format!("iterations: {e}"))?;
     println!(
         "| grid | nodes | ratio | region nodes | force at 2 s, N (single-rate) | largest force difference from 0.1 s | largest node difference at 2 s | nodes over 1 mm off | largest coupling gap |"
     );

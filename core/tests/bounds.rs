@@ -7,8 +7,8 @@ use lamina_core::law::SpringLaw;
 use lamina_core::model::Model;
 use lamina_core::scene::Scene;
 use lamina_core::solver::{
-    IntegrationParameters, IntegratorKind, MAX_CG_ITERATIONS, MAX_SUBSTEPS, Simulation, SimulationBuildError, Substeps,
-    max_coordinate,
+    IntegrationParameters, IntegratorKind, MAX_CG_ITERATIONS, MAX_FACTORED_ITERATIONS, MAX_SUBSTEPS, Simulation,
+    SimulationBuildError, Substeps, max_coordinate,
 };
 
 /// The built-in default scene's model and settings.
@@ -64,6 +64,18 @@ fn cg_max_iterations_unbounded_is_refused_works() {
     };
     let e = build::<f32>(&scene, &model, params).err().expect("refused");
     assert_eq!(above_cap(&e), ("cg_max_iterations", u64::from(u32::MAX), u64::from(MAX_CG_ITERATIONS)));
+}
+
+#[test]
+fn factored_iterations_unbounded_is_refused_works() {
+    let (scene, model) = default_scene();
+    let params = IntegrationParameters {
+        integrator: IntegratorKind::ImplicitFactored,
+        factored_iterations: MAX_FACTORED_ITERATIONS + 1,
+        ..scene.solver.clone()
+    };
+    let e = build::<f32>(&scene, &model, params).err().expect("refused");
+    assert_eq!(above_cap(&e), ("factored_iterations", 65, 64));
 }
 
 #[test]
@@ -197,6 +209,7 @@ fn zero_substep_and_iteration_limits_are_refused_fails() {
     for params in [
         IntegrationParameters { max_substeps: 0, ..scene.solver.clone() },
         IntegrationParameters { cg_max_iterations: 0, ..scene.solver.clone() },
+        IntegrationParameters { factored_iterations: 0, ..scene.solver.clone() },
     ] {
         let e = build::<f32>(&scene, &model, params).err().expect("refused");
         assert!(matches!(e, SimulationBuildError::BadParameter { expected: "at least 1", .. }), "{e}");

@@ -3,8 +3,8 @@
 
 use super::section::{FieldError, finite3, non_negative};
 use crate::solver::{
-    IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings,
-    SimdLevel, Substeps,
+    IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_FACTORED_ITERATIONS,
+    MAX_MULTIRATE_RATIO, MultirateSettings, SimdLevel, Substeps,
 };
 use serde::Deserialize;
 
@@ -88,7 +88,7 @@ pub(super) fn solver_parameters(
         solver.max_substeps = m;
     }
     if let Some(n) = raw.factored_iterations {
-        if !(1..=64).contains(&n) {
+        if !(1..=MAX_FACTORED_ITERATIONS).contains(&n) {
             return Err(FieldError::new("solver.factored_iterations", "between 1 and 64"));
         }
         solver.factored_iterations = n;

@@ -4,7 +4,8 @@
 //!
 //! Each cap bounds the work of one frame, so a scene cannot make a step run for hours:
 //! at most [`MAX_SUBSTEPS`] sub-steps, each with at most [`MAX_CG_ITERATIONS`] conjugate
-//! gradient iterations, and the guard's retries at most [`MAX_GUARD_RETRIES`] doublings.
+//! gradient iterations (`implicit_factored`: at most [`MAX_FACTORED_ITERATIONS`] per step),
+//! and the guard's retries at most [`MAX_GUARD_RETRIES`] doublings.
 
 use super::build_error::SimulationBuildError;
 use super::critical_step::StabilityEstimate;
@@ -17,6 +18,8 @@ use crate::real::Real;
 pub const MAX_SUBSTEPS: u32 = 10_000;
 /// Largest `cg_max_iterations` (per sub-step of implicit Euler). 10,000.
 pub const MAX_CG_ITERATIONS: u32 = 10_000;
+/// Largest `factored_iterations` (PCG iterations per step of `implicit_factored`). 64.
+pub const MAX_FACTORED_ITERATIONS: u32 = 64;
 /// Largest number of guard retries, each doubling the sub-steps. 8 (256 times the
 /// sub-steps at most).
 pub const MAX_GUARD_RETRIES: u32 = 8;
@@ -33,6 +36,7 @@ pub(crate) fn check_params(params: &IntegrationParameters, effects: &Effects) ->
     }
     cap("max_substeps", u64::from(params.max_substeps), u64::from(MAX_SUBSTEPS))?;
     cap("cg_max_iterations", u64::from(params.cg_max_iterations), u64::from(MAX_CG_ITERATIONS))?;
+    cap("factored_iterations", u64::from(params.factored_iterations), u64::from(MAX_FACTORED_ITERATIONS))?;
     cap("threads", params.threads as u64, MAX_THREADS as u64)?;
     let at_least_one = |parameter: &'static str, value: u32| {
         if value == 0 {
@@ -43,6 +47,7 @@ pub(crate) fn check_params(params: &IntegrationParameters, effects: &Effects) ->
     };
     at_least_one("max_substeps", params.max_substeps)?;
     at_least_one("cg_max_iterations", params.cg_max_iterations)?;
+    at_least_one("factored_iterations", params.factored_iterations)?;
     at_least_one("threads", params.threads as u32)?;
     if let Some(g) = effects.guard {
         cap("guard.retries", u64::from(g.retries), u64::from(MAX_GUARD_RETRIES))?;

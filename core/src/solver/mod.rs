@@ -34,7 +34,9 @@ mod spring_runs;
 mod vec3s;
 mod worker_pool;
 
-pub use build_checks::{MAX_CG_ITERATIONS, MAX_GUARD_RETRIES, MAX_SUBSTEPS, MAX_THREADS, max_coordinate};
+pub use build_checks::{
+    MAX_CG_ITERATIONS, MAX_FACTORED_ITERATIONS, MAX_GUARD_RETRIES, MAX_SUBSTEPS, MAX_THREADS, max_coordinate,
+};
 pub use critical_step::StabilityEstimate;
 pub use dynamics::{StageCounters, State};
 pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};

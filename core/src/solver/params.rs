@@ -108,7 +108,8 @@ pub struct IntegrationParameters {
     /// Precondition implicit Euler's conjugate gradients with the prefactored soft-phase
     /// matrix (`factored_preconditioner.rs`) instead of its diagonal. Default false.
     pub factored_preconditioner: bool,
-    /// Conjugate-gradient iterations per step (`implicit_factored` only). Default 1.
+    /// Conjugate-gradient iterations per step (`implicit_factored` only). Default 1; 1 to
+    /// [`MAX_FACTORED_ITERATIONS`](super::MAX_FACTORED_ITERATIONS) (64).
     pub factored_iterations: u32,
     /// Rayleigh mass-proportional damping α, 1/s (implicit Euler only). Default 0.
     pub rayleigh_alpha: f64,
