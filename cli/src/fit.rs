@@ -9,8 +9,8 @@
 use super::plot::font_available;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lamina_core::fit::{
-    CurveError, FitSettings, LayerFit, LayerGeometry, TargetCurve, TissueTargets, curve_error, cylinder_geometry,
-    fit_layers, scene_geometry, scene_springs,
+    CurveError, FitObjective, FitSettings, LayerFit, LayerGeometry, TargetCurve, TissueTargets, curve_error,
+    cylinder_geometry, fit_layers, scene_geometry, scene_springs,
 };
 use lamina_core::generator::{CylinderLimb, GridSize, Materials, generate};
 use lamina_core::scene::{ModelSource, Scene, SceneSprings};
@@ -276,22 +276,30 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
     }
     println!("\nfitted springs (the paper's Table 2 trend: stiffer springs on coarser grids)");
     println!(
-        "{:<24} {:>8} {:>8} {:<7} {:<62} {:>10} {:>6}",
-        "limb", "cell mm", "layer mm", "layer", "springs", "psi", "evals"
+        "{:<24} {:>8} {:>8} {:<7} {:<62} {:<7} {:>10} {:>10} {:>6}",
+        "limb", "cell mm", "layer mm", "layer", "springs", "fit to", "psi", "moduli psi", "evals"
     );
     for (job, (fits, _)) in jobs.iter().zip(&fitted) {
         for (fit, geo) in fits.iter().zip(&job.geometry) {
             println!(
-                "{:<24} {:>8.2} {:>8.2} {:<7} {:<62} {:>10.2e} {:>6}",
+                "{:<24} {:>8.2} {:>8.2} {:<7} {:<62} {:<7} {:>10.2e} {:>10.2e} {:>6}",
                 job.label,
                 geo.spacing_m * 1e3,
                 geo.thickness_m * 1e3,
                 fit.tissue,
                 spring_text(fit),
+                fit.objective.name(),
                 fit.psi,
+                fit.moduli_psi,
                 fit.anneal.history.len()
             );
         }
+    }
+    if fitted.iter().flat_map(|(fits, _)| fits).any(|f| f.objective == FitObjective::Strain) {
+        println!(
+            "fit to strain: the regression's moduli reached no psi below {:e} on that layer's cells, so its springs were fitted to the tissue's strain under every load (docs/fitting.md)",
+            settings.anneal.psi_stop
+        );
     }
     println!(
         "\nfitted layers against the tissue's curve, at every tested strain: RMS and largest error as a share of the curve's RMS and peak stress, and the error at the smallest strain"
@@ -366,6 +374,12 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
             );
         }
     }
+    for fit in fits.iter().filter(|f| f.objective == FitObjective::Strain) {
+        println!(
+            "{}: fitted to its strains; the values above are the regression's reading of its rounded knee, its error against the tissue's curve is the table before",
+            fit.tissue
+        );
+    }
     // The fitted limb, springs replaced, with provenance.
     let materials = scene_springs(fits, settings.anneal.seed).materials();
     let limb = CylinderLimb { grid: model_grid, ..CylinderLimb::default() };
@@ -379,6 +393,7 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
         let p = |k: &str| format!("fit.{}.{k}", fit.tissue);
         model.provenance.push((p("targets"), target.path.display().to_string()));
         model.provenance.push((p("springs"), spring_text(fit)));
+        model.provenance.push((p("objective"), fit.objective.name().to_string()));
         model.provenance.push((p("psi"), format!("{:e}", fit.psi)));
         model.provenance.push((p("iterations"), fit.anneal.history.len().to_string()));
         for a in &fit.achieved {

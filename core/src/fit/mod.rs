@@ -23,7 +23,8 @@ pub mod tensile;
 pub use anneal::{AnnealResult, AnnealSettings, AnnealStep, AnnealStop, anneal};
 pub use curve_error::{CurveError, curve_error};
 pub use layer_fit::{
-    Achieved, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of, psi,
+    Achieved, FitObjective, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of,
+    psi, strain_psi,
 };
 pub use regression::{BilinearFit, LineFit, bilinear_regression, line_fit};
 pub use scene_fit::{
