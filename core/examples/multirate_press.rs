@@ -6,6 +6,8 @@
 //! cargo run --release -p lamina-core --example multirate_press -- 48x12,96x24,160x40 8,20 0.03
 //! ```
 //!
+//! `GRIDS` lists the default limb's grids (`COLUMNSxROWS`) or scene files (`.toml`, run with their
+//! own springs and solver settings, e.g. `config/scenes/limb-96x24.toml`).
 //! `ITERATIONS` sets `factored_iterations` (PCG iterations per step, region and bulk alike,
 //! 1 to 64); by default the scene's.
 //!
@@ -91,9 +93,14 @@ fn main() -> Result<(), String> {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for grid in grids.split(',') {
-        let (c, r) = grid.split_once('x').ok_or_else(|| format!("grid '{grid}': COLUMNSxROWS"))?;
-        let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("grid '{grid}': {e}"));
-        let scene = limb(parse(c)?, parse(r)?)?;
+        let scene = if grid.ends_with(".toml") {
+            // A scene file: its own limb, springs and solver settings.
+            Scene::load(std::path::Path::new(grid)).map_err(|e| e.to_string())?
+        } else {
+            let (c, r) = grid.split_once('x').ok_or_else(|| format!("grid '{grid}': COLUMNSxROWS or a scene file"))?;
+            let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("grid '{grid}': {e}"));
+            limb(parse(c)?, parse(r)?)?
+        };
         let (single, single_forces) = press(&scene, None, iterations)?;
         for ratio in ratios.split(',') {
             let ratio: u32 = ratio.trim().parse().map_err(|e| format!("ratio '{ratio}': {e}"))?;

@@ -31,7 +31,7 @@ fn differs(a: &SpringMaterial, b: &SpringMaterial) -> f64 {
 fn shipped_scenes_run_the_springs_fitted_for_their_grid_works() {
     let targets = ["skin", "fat", "muscle"]
         .map(|t| TissueTargets::load(&repo(&format!("config/materials/{t}.toml"))).expect("shipped targets load"));
-    for name in ["default", "limb", "thigh"] {
+    for name in ["default", "limb", "thigh", "limb-96x24"] {
         let path = repo(&format!("config/scenes/{name}.toml"));
         let scene = Scene::load(&path).expect("shipped scene loads");
         let springs = match &scene.model {
