@@ -152,8 +152,10 @@ enum Command {
         out: PathBuf,
     },
     /// Fits each layer's springs to measured tissue (virtual tensile test, bilinear
-    /// regression, simulated annealing), per grid size of the cylindrical limb or for a
-    /// scene's limb, and measures each fitted layer against the tissue's own curve.
+    /// regression, simulated annealing; a layer whose moduli do not converge, such as skin on
+    /// cells of a few mm, is fitted to its strain under every load), per grid size of the
+    /// cylindrical limb or for a scene's limb, and measures each fitted layer against the
+    /// tissue's own curve.
     Fit {
         /// Folder with skin.toml, fat.toml and muscle.toml. Default: ./config/materials when
         /// it exists, else the shipped targets built into this binary.

@@ -16,7 +16,8 @@ pub struct FitSettings {
     /// Load steps of each tensile test. [24]
     pub loads: usize,
     /// Annealing runs at most: a run that freezes above `psi_stop` is followed by another
-    /// from the best point so far (reheated to `T0` of that point, next seed). [4]
+    /// from the best point so far (reheated to `T0` of that point, next seed), unless that
+    /// reheated run lowered the best ψ by less than 1 %. [4]
     pub restarts: usize,
     /// Correction steps from the first guess and after each annealing run: every parameter
     /// scaled by (target / achieved)^γ of the value it mostly sets, γ = 0.8 halved whenever
@@ -120,8 +121,9 @@ pub fn macroscopic(targets: &TissueTargets, curve: &TensileCurve) -> Option<Vec<
     }
 }
 
-/// A further annealing run on ψ_ε must lower it by at least this fraction, or the search ends.
-const STRAIN_RUN_GAIN: f64 = 0.01;
+/// A reheated annealing run must lower the best ψ by at least this fraction, or the search
+/// under that objective ends.
+const RUN_GAIN: f64 = 0.01;
 
 /// What a layer's springs are fitted to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -331,8 +333,8 @@ pub fn fit_layer(
                 best = h.params;
                 best_psi = h.psi;
             }
-            if objective == FitObjective::Strain && run > 0 && best_psi > (1.0 - STRAIN_RUN_GAIN) * before {
-                // ψ_ε has no zero to stop at: a run that no longer improves it ends the search.
+            if run > 0 && best_psi > (1.0 - RUN_GAIN) * before {
+                // A reheated run that no longer improves ψ ends the search.
                 break;
             }
         }
