@@ -358,8 +358,7 @@ pub fn fit_layer(
         objective = FitObjective::Strain;
         (best, best_psi, stop) = search(objective, x0, &mut curves, &mut history);
     }
-    let result: Option<AnnealResult> = Some(AnnealResult { best, best_psi, history, stop });
-    let result = result.ok_or(LayerFitError::NoCurve)?;
+    let result = AnnealResult { best, best_psi, history, stop };
     if !result.best_psi.is_finite() {
         return Err(LayerFitError::NoCurve);
     }

@@ -4,7 +4,7 @@
 use super::section::{FieldError, finite3, non_negative};
 use crate::solver::{
     IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_FACTORED_ITERATIONS,
-    MAX_MULTIRATE_RATIO, MultirateSettings, SimdLevel, Substeps,
+    MAX_MULTIRATE_RATIO, MAX_THREADS, MultirateSettings, SimdLevel, Substeps,
 };
 use serde::Deserialize;
 
@@ -61,8 +61,8 @@ pub(super) fn solver_parameters(
         Some(_) => return Err(FieldError::new("solver.substeps", "\"auto\" or an integer from 1 to 100000")),
     }
     if let Some(t) = raw.threads {
-        if t == 0 || t > 256 {
-            return Err(FieldError::new("solver.threads", "between 1 and 256"));
+        if !(1..=MAX_THREADS).contains(&t) {
+            return Err(FieldError::new("solver.threads", format!("between 1 and {MAX_THREADS}")));
         }
         solver.threads = t;
     }
@@ -89,7 +89,10 @@ pub(super) fn solver_parameters(
     }
     if let Some(n) = raw.factored_iterations {
         if !(1..=MAX_FACTORED_ITERATIONS).contains(&n) {
-            return Err(FieldError::new("solver.factored_iterations", "between 1 and 64"));
+            return Err(FieldError::new(
+                "solver.factored_iterations",
+                format!("between 1 and {MAX_FACTORED_ITERATIONS}"),
+            ));
         }
         solver.factored_iterations = n;
     }
