@@ -449,12 +449,13 @@ fn print_physics<T: Real>(
             m.refused
         );
         println!(
-            "multirate region: moved with the tool {} time(s) (taken {} or more exchanges after asking; longest build {:.1} us, on a thread of its own), {} region(s) about the tool refused; now {} nodes about ({:.3}, {:.3}, {:.3}) m",
+            "multirate region: moved with the tool {} time(s) (taken {} or more exchanges after asking; longest build {:.1} us, on a thread of its own), {} region(s) about the tool refused; now {} nodes within {:.1} mm of ({:.3}, {:.3}, {:.3}) m",
             m.recentres,
             m.build_exchanges,
             m.recentre_build_max_ns as f64 / 1e3,
             m.recentres_refused,
             m.region_nodes,
+            m.radius * 1e3,
             m.centre[0],
             m.centre[1],
             m.centre[2]

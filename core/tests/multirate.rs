@@ -208,6 +208,81 @@ fn multirate_region_follows_a_sliding_tool_works() {
     assert!(worst(&stuck_forces) > 0.2, "fixed region {stuck_forces:?} N");
 }
 
+/// On the default limb at 48x12, presses the 12 mm tool 8 mm into the skin over 0.3 s; widens
+/// it to `wide` m (its lowest point kept where it was) and slides it 3 cm along the limb over
+/// 0.5 s, held to 1.5 s; narrows it back, held to 2.5 s. Returns the simulation, the vertical
+/// force on the tool (N) at the end of each hold, the region's radius (m) at both times (0
+/// single-rate), and the nodes that were inside the tool and outside the region from 0.1 s
+/// after each change of radius.
+fn press_widen_narrow(
+    wide: f64,
+    settings: Option<MultirateSettings>,
+) -> (Simulation<f32>, [f64; 2], [f64; 2], Vec<usize>) {
+    let scene = default_limb_on_grid(48, 12);
+    let rest = scene.build_model().unwrap().nodes.position;
+    let (mut sim, origin) = limb_with_tool(scene, IntegratorKind::ImplicitFactored, settings);
+    let narrow = sim.effects().tool.unwrap().radius;
+    let (mut forces, mut radii, mut outside) = ([0.0; 2], [0.0; 2], Vec::new());
+    for frame in 1..=2500 {
+        let depth = 0.008 * (frame as f64 / 300.0).min(1.0);
+        let along = 0.03 * ((frame as f64 - 300.0) / 500.0).clamp(0.0, 1.0);
+        let radius = if (300..1500).contains(&frame) { wide } else { narrow };
+        let tool = sim.effects_mut().tool.as_mut().unwrap();
+        tool.radius = radius;
+        tool.start = [origin[0], origin[1] - depth + (radius - narrow), origin[2] + along];
+        sim.step();
+        if frame == 1499 || frame == 2500 {
+            let k = usize::from(frame == 2500);
+            forces[k] = sim.tool_feedback().force[1];
+            radii[k] = sim.multirate_status().map_or(0.0, |m| m.radius);
+        }
+        // The region is taken 64 ticks after asking: from 0.1 s after each change of radius.
+        let settled = !(300..400).contains(&frame) && !(1500..1600).contains(&frame);
+        if let Some(m) = sim.multirate_status().filter(|_| settled) {
+            let tool = sim.effects().tool.unwrap();
+            let x = &sim.state().x;
+            let dist = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+            outside.extend(
+                (0..x.len())
+                    .filter(|&i| dist(x.get_f64(i), tool.start) < tool.radius && dist(rest[i], m.centre) > m.radius),
+            );
+        }
+    }
+    assert_eq!(sim.guard_totals().rollbacks, 0);
+    outside.sort_unstable();
+    outside.dedup();
+    (sim, forces, radii, outside)
+}
+
+#[test]
+fn multirate_region_widens_for_a_wide_tool_works() {
+    // A 45 mm tool pressing 8 mm has its centre 37 mm above the skin: a 30 mm region about it
+    // would hold no node. The region is built at 4/3 of the tool's radius instead, so it
+    // follows the sliding tool and holds every node the tool touches; narrowed, the region
+    // returns to 30 mm. The force is the single-rate solver's.
+    let (base, wide) = (0.03, 0.045);
+    let (_, single, _, _) = press_widen_narrow(wide, None);
+    let (multi, forces, radii, outside) = press_widen_narrow(wide, multirate(base, 8));
+    let status = multi.multirate_status().unwrap();
+    eprintln!(
+        "wide tool: force {:.5} N (single-rate {:.5} N), region {} mm; narrowed: {:.5} N (single-rate {:.5} N), region {} mm; {} moves",
+        forces[0],
+        single[0],
+        radii[0] * 1e3,
+        forces[1],
+        single[1],
+        radii[1] * 1e3,
+        status.recentres
+    );
+    assert!(status.recentres >= 3 && status.recentres_refused == 0, "{status:?}");
+    assert!(outside.is_empty(), "nodes {outside:?} were inside the tool and outside the region");
+    assert!((radii[0] - wide * 4.0 / 3.0).abs() < 1e-12 && radii[1] == base, "{radii:?}");
+    for k in 0..2 {
+        assert!(single[k] > 0.05, "the tool presses ({} N)", single[k]);
+        assert!((forces[k] - single[k]).abs() <= 0.01 * single[k], "multirate {forces:?} N, single-rate {single:?} N");
+    }
+}
+
 #[test]
 fn multirate_results_do_not_depend_on_the_bulk_threads_timing_works() {
     // The region waits for the bulk's state at each exchange, so two runs give the same bits

@@ -44,6 +44,7 @@ pub use guard::{GuardEvent, GuardReason, Recovery};
 pub use implicit_factored::ImplicitFactored;
 pub use multirate::{
     FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus,
+    region_radius,
 };
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;

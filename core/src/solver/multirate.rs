@@ -96,6 +96,10 @@ pub struct MultirateSettings {
     /// Centre of the region stepped every tick, m, in the model's frame: where the tool works.
     pub centre: [f64; 3],
     /// Radius of that region, m: free nodes within it are stepped every tick. Default 0.05.
+    /// With `follow_tool`, a tool wider than three quarters of it gets a region of 4/3 its
+    /// radius ([`region_radius`]), so the tool's contacts lie inside the region wherever the
+    /// tool goes before a region about it is built; the region returns to this radius when
+    /// the tool shrinks back.
     pub radius: f64,
     /// The bulk takes one step per this many ticks, 2 to [`MAX_MULTIRATE_RATIO`]. Default 8.
     pub ratio: u32,
@@ -156,6 +160,25 @@ pub const MAX_BUILD_EXCHANGES: u32 = 100_000;
 /// The tool may move this fraction of the region's radius from its centre before a region
 /// about it is built.
 const RECENTRE_FRACTION: f64 = 0.25;
+
+/// A region that grew for a wide tool is built again at its needed radius once that is
+/// less than this fraction of its own (hysteresis against rebuilding for every small change).
+const SHRINK_FRACTION: f64 = 0.9;
+
+/// Radius (m) of a region following a tool of radius `tool_radius` (m), at least `radius`:
+/// the tool's centre may stray [`RECENTRE_FRACTION`] of the region's radius from the
+/// region's centre, so its contacts, within `tool_radius` of its centre, stay inside a
+/// region of radius `tool_radius / (1 - RECENTRE_FRACTION)` or more.
+///
+/// ```
+/// use lamina_core::solver::region_radius;
+/// assert_eq!(region_radius(0.025, Some(0.012)), 0.025); // the 12 mm tool fits
+/// assert!((region_radius(0.025, Some(0.03)) - 0.04).abs() < 1e-12); // a 3 cm tool: 4 cm
+/// assert_eq!(region_radius(0.025, None), 0.025); // no tool
+/// ```
+pub fn region_radius(radius: f64, tool_radius: Option<f64>) -> f64 {
+    tool_radius.map_or(radius, |r| radius.max(r / (1.0 - RECENTRE_FRACTION)))
+}
 
 /// Springs between the region's edge and its core: the nodes between are stepped by both
 /// halves, and the bulk keeps its own values there. Without this overlap, exchanging states
@@ -354,6 +377,8 @@ impl Partition {
 pub(crate) struct Layout {
     /// Centre of the region's sphere, m.
     centre: [f64; 3],
+    /// Radius of the region's sphere, m.
+    radius: f64,
     pub(crate) partition: Partition,
     /// The region's nodes, indices in the region's model (in [`Partition::inner`] order).
     inner_local: Vec<u32>,
@@ -368,7 +393,7 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    fn new(partition: Partition, centre: [f64; 3]) -> Self {
+    fn new(partition: Partition, centre: [f64; 3], radius: f64) -> Self {
         let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
         let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
         let overlap_local = local(&partition.overlap);
@@ -378,7 +403,7 @@ impl Layout {
             .filter(|&&i| partition.local_of[i as usize] != u32::MAX)
             .map(|&i| (partition.local_of[i as usize], i))
             .unzip();
-        Self { centre, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
+        Self { centre, radius, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
     }
 
     /// `effects` (model node indices) in the region's node indices, into `into`: loads and
@@ -460,14 +485,14 @@ impl RegionBuilder {
         }
     }
 
-    /// The region about `centre` and its simulation at rest, its loads and handles lists
+    /// The region `sphere` asks for and its simulation at rest, its loads and handles lists
     /// holding at least `capacity` (loads, handles) entries, and the bulk holding its core.
     pub fn build<T: Real>(
         &self,
-        centre: [f64; 3],
+        sphere: Sphere,
         capacity: (usize, usize),
     ) -> Result<Built<T>, super::SimulationBuildError> {
-        let settings = MultirateSettings { centre, ..self.settings };
+        let settings = MultirateSettings { centre: sphere.centre, radius: sphere.radius, ..self.settings };
         let relocation =
             build_region(&self.model, &self.params, &self.effects, &settings, capacity, Some(self.known_stability))?;
         let bulk = build_bulk(
@@ -495,7 +520,7 @@ pub(crate) fn build_region<T: Real>(
     let partition = Partition::of(model, settings);
     partition.check(settings).map_err(super::SimulationBuildError::Multirate)?;
     let region_model = partition.region_model(model);
-    let layout = Layout::new(partition, settings.centre);
+    let layout = Layout::new(partition, settings.centre, settings.radius);
     let mut region_effects = effects.clone();
     region_effects.loads.reserve(capacity.0);
     region_effects.handles.reserve(capacity.1);
@@ -532,6 +557,13 @@ pub struct FrameChanges<'a> {
     pub nodes: &'a [u32],
 }
 
+/// Where a region is asked for: its sphere's centre and radius, m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Sphere {
+    pub centre: [f64; 3],
+    pub radius: f64,
+}
+
 /// The state passed between the region and the bulk: one packet, owned by one side at a time.
 struct Packet<T: Real> {
     /// Time of the region's state, s.
@@ -553,9 +585,9 @@ struct Packet<T: Real> {
     build_ns: u64,
     /// Whether the bulk's state is finite (the bulk's guard, when on, keeps it so).
     finite: bool,
-    /// Region to bulk: build a region about this centre (after returning this packet; the
-    /// region comes back with the next one).
-    recentre: Option<[f64; 3]>,
+    /// Region to bulk: build this region (after returning this packet; the region comes
+    /// back with the next one).
+    recentre: Option<Sphere>,
     /// Bulk to region: the region asked for with the packet before could not be built.
     recentre_refused: bool,
     /// The loads and handles capacity of the caller's effects, for a region built here.
@@ -579,6 +611,9 @@ pub struct MultirateStatus {
     pub ratio: u32,
     /// Centre of the region now, m.
     pub centre: [f64; 3],
+    /// Radius of the region now, m: [`MultirateSettings::radius`], or more about a wide tool
+    /// ([`region_radius`]).
+    pub radius: f64,
     /// Bulk steps taken.
     pub bulk_steps: u64,
     /// Longest bulk step, ns.
@@ -637,14 +672,15 @@ pub(crate) struct Multirate<T: Real> {
     layout: Layout,
     /// Per model node, whether it moves.
     free: Vec<bool>,
-    /// Region radius (m) and whether it follows the tool.
+    /// The smallest region radius (m, [`MultirateSettings::radius`]) and whether the region
+    /// follows the tool.
     radius: f64,
     follow_tool: bool,
-    /// The centre of a region asked of the bulk and not yet answered.
-    requested: Option<[f64; 3]>,
-    /// Where the last refused region was centred: asked again only once the tool has moved
-    /// on from there.
-    refused_at: Option<[f64; 3]>,
+    /// The region asked of the bulk and not yet answered.
+    requested: Option<Sphere>,
+    /// The last region refused: asked again only once the tool has moved on from there or
+    /// needs another radius.
+    refused_at: Option<Sphere>,
     /// The whole model's state: the region's nodes as of the last tick, the others as the
     /// bulk left them at the last exchange, held nodes as built.
     pub(crate) full: State<T>,
@@ -746,7 +782,8 @@ impl<T: Real> Multirate<T> {
             region_nodes: layout.partition.inner.len(),
             bulk_nodes: layout.partition.outer.len(),
             ratio: settings.ratio,
-            centre: settings.centre,
+            centre: layout.centre,
+            radius: layout.radius,
             build_exchanges,
             ..MultirateStatus::default()
         };
@@ -892,6 +929,7 @@ impl<T: Real> Multirate<T> {
         self.status.region_nodes = self.layout.partition.inner.len();
         self.status.bulk_nodes = self.layout.partition.outer.len();
         self.status.centre = self.layout.centre;
+        self.status.radius = self.layout.radius;
         self.status.recentres += 1;
         self.refused_at = None;
         if let Some(p) = self.packet.as_mut() {
@@ -912,11 +950,19 @@ impl<T: Real> Multirate<T> {
         packet.relocation = retired.or(packet.relocation.take());
         packet.recentre = None;
         if let Some(tool) = packet.tool.filter(|_| self.follow_tool && self.requested.is_none()) {
-            let far = |from: [f64; 3]| distance(tool.start, from) > RECENTRE_FRACTION * self.radius;
-            if far(self.layout.centre) && self.refused_at.is_none_or(far) {
-                packet.recentre = Some(tool.start);
+            let wanted = Sphere { centre: tool.start, radius: region_radius(self.radius, Some(tool.radius)) };
+            // Built again when the tool strays from its centre, outgrows it, or has shrunk
+            // well inside a region grown for it.
+            let differs = |from: &Sphere| {
+                distance(wanted.centre, from.centre) > RECENTRE_FRACTION * from.radius
+                    || wanted.radius > from.radius
+                    || wanted.radius < SHRINK_FRACTION * from.radius
+            };
+            let current = Sphere { centre: self.layout.centre, radius: self.layout.radius };
+            if differs(&current) && self.refused_at.as_ref().is_none_or(differs) {
+                packet.recentre = Some(wanted);
                 packet.effects_capacity = (self.effects.loads.capacity(), self.effects.handles.capacity());
-                self.requested = Some(tool.start);
+                self.requested = Some(wanted);
             }
         }
         if let Err(p) = self.to_bulk.push(packet) {
@@ -1038,7 +1084,7 @@ pub(crate) fn auto_build_exchanges(bulk_build: Duration, dt: f64, ratio: u32) ->
 /// idle), so the build never delays a bulk step.
 fn start_build<T: Real>(
     builder: &Arc<RegionBuilder>,
-    centre: [f64; 3],
+    sphere: Sphere,
     capacity: (usize, usize),
 ) -> Result<Building<T>, super::SimulationBuildError> {
     let builder = Arc::clone(builder);
@@ -1047,7 +1093,7 @@ fn start_build<T: Real>(
         .spawn(move || {
             lower_this_threads_priority();
             let start = Instant::now();
-            let built = builder.build::<T>(centre, capacity);
+            let built = builder.build::<T>(sphere, capacity);
             (built, start.elapsed())
         })
         .map_err(|e| super::SimulationBuildError::Multirate(format!("starting the region builder's thread: {e}")))?;
@@ -1161,9 +1207,9 @@ fn bulk_loop<T: Real>(
         }
         let request = packet.recentre.take();
         let capacity = packet.effects_capacity;
-        if let Some((centre, builder)) = request.zip(builder.as_ref()) {
+        if let Some((sphere, builder)) = request.zip(builder.as_ref()) {
             let build_exchanges = builder.settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
-            match start_build::<T>(builder, centre, capacity) {
+            match start_build::<T>(builder, sphere, capacity) {
                 // Asked with packet `exchange`, taken by the region at exchange
                 // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.
                 Ok(started) => building = Some((started, exchange + u64::from(build_exchanges) - 1)),

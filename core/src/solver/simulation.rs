@@ -22,6 +22,7 @@ use super::implicit_factored::ImplicitFactored;
 use super::multirate::{
     DEFER_BUILD_EXCHANGES, FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate,
     MultirateSettings, MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk, build_region,
+    region_radius,
 };
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
@@ -212,8 +213,15 @@ impl<T: Real> Simulation<T> {
             ..params.clone()
         };
         let capacity = (effects.loads.capacity(), effects.handles.capacity());
+        // A region that follows the tool starts wide enough for it.
+        let first = match (settings.follow_tool, &effects.tool) {
+            (true, Some(tool)) => {
+                MultirateSettings { radius: region_radius(settings.radius, Some(tool.radius)), ..settings }
+            }
+            _ => settings,
+        };
         let Relocation { layout, region: mut sim } =
-            build_region::<T>(model, &region_params, &effects, &settings, capacity, None)?;
+            build_region::<T>(model, &region_params, &effects, &first, capacity, None)?;
         let bulk_start = Instant::now();
         let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, None)?;
         let build_exchanges = settings.build_exchanges.unwrap_or_else(|| match settings.late_build {
