@@ -262,7 +262,8 @@ enum BenchCommand {
         /// Scene file whose model is used; the built-in default when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
-        /// Seconds per timed batch (7 batches, median reported).
+        /// Seconds per timed batch (9 interleaved batches per configuration, the fastest
+        /// reported).
         #[arg(long, default_value_t = 0.2)]
         batch_seconds: f64,
     },

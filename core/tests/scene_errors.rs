@@ -55,6 +55,7 @@ const BROKEN: &[(&str, Expect)] = &[
     ("zero_substeps.toml", Value { field: "solver.substeps", line: 3 }),
     ("too_many_threads.toml", Value { field: "solver.threads", line: 2 }),
     ("nan_gravity.toml", Value { field: "effects.gravity", line: 3 }),
+    ("bone_motion_without_bone.toml", Value { field: "effects.bone_motion", line: 3 }),
     ("nan_load.toml", Value { field: "effects.loads[1]", line: 7 }),
     ("negative_handle.toml", Value { field: "effects.handles[0]", line: 1 }),
     // The missing key's table is named.

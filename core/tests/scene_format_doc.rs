@@ -102,6 +102,10 @@ fn scene_text(section: &Section, extra: &[String]) -> String {
     if multirate {
         text.push_str("[solver]\nintegrator = \"implicit_factored\"\n[effects]\nbone = true\n");
     }
+    // Bone motion moves the bone.
+    if section.path == "effects.bone_motion" {
+        text.push_str("[effects]\nbone = true\n");
+    }
     if !section.path.is_empty() {
         let (open, close) = if section.array { ("[[", "]]") } else { ("[", "]") };
         text.push_str(&format!("{open}{}{close}\n", section.path));
@@ -113,6 +117,9 @@ fn scene_text(section: &Section, extra: &[String]) -> String {
     }
     if multirate && !extra.iter().any(|e| e.starts_with("centre = ")) {
         text.push_str("centre = [0.0, 0.062, 0.12]\n");
+    }
+    if section.path == "effects" && extra.iter().any(|e| e.starts_with("bone_motion = ")) {
+        text.push_str("bone = true\n");
     }
     for line in extra {
         text.push_str(line);

@@ -58,6 +58,24 @@ impl NodeSet {
         self.position.is_empty()
     }
 
+    /// Marks every fixed node kinematic: the bone they are attached to moves
+    /// (`effects.bone_motion`). Generated models fix their innermost level to bone; a scene
+    /// asking for bone motion moves it.
+    ///
+    /// ```
+    /// use lamina_core::model::{NodeKind, NodeSet};
+    /// let mut nodes = NodeSet::default();
+    /// nodes.push([0.0; 3], 1e-3, NodeKind::Fixed, 0);
+    /// nodes.push([0.0, 0.01, 0.0], 1e-3, NodeKind::Free, 1);
+    /// nodes.set_bone_moving();
+    /// assert_eq!(nodes.kind, [NodeKind::Kinematic, NodeKind::Free]);
+    /// ```
+    pub fn set_bone_moving(&mut self) {
+        for kind in self.kind.iter_mut().filter(|k| **k == NodeKind::Fixed) {
+            *kind = NodeKind::Kinematic;
+        }
+    }
+
     /// Appends a node; returns its index.
     pub fn push(&mut self, position: [f64; 3], mass: f64, kind: NodeKind, layer: u16) -> u32 {
         self.position.push(position);

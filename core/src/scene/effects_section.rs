@@ -77,6 +77,9 @@ pub(super) fn effects(raw: RawEffects) -> Result<(Effects, Option<ToolSettings>)
     let loads = raw.loads.iter().enumerate().map(load).collect::<Result<_, _>>()?;
     let handles = raw.handles.iter().enumerate().map(handle).collect::<Result<_, _>>()?;
     let bone_motion = raw.bone_motion.map(bone_motion).transpose()?;
+    if bone_motion.is_some() && !raw.bone {
+        return Err(FieldError::new("effects.bone_motion", "moves the bone: needs bone = true"));
+    }
     let guard = raw.guard.map(guard).transpose()?.flatten();
     let tool = raw.tool.map(tool_settings).transpose()?;
     let effects = Effects {

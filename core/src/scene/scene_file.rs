@@ -10,7 +10,7 @@ use super::section::FieldError;
 use super::solver_section::{RawSolver, solver_parameters};
 use super::tool_settings::ToolSettings;
 use super::visual_section::{RawVisual, VisualSection, visual_section};
-use crate::model::Model;
+use crate::model::{Model, NodeKind};
 use crate::solver::{Effects, IntegrationParameters};
 use crate::yardstick::lattice_model;
 use serde::Deserialize;
@@ -244,6 +244,23 @@ impl Scene {
             ModelSource::File(p) => crate::io::read_model(p)
                 .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?,
         };
+        let mut model = model;
+        if self.effects.bone_motion.is_some() {
+            let which = match &self.model {
+                ModelSource::File(p) => format!("the model file {}", p.display()),
+                _ => {
+                    // A generated model's bone does not move unless the scene moves it.
+                    model.nodes.set_bone_moving();
+                    "the generated model".to_string()
+                }
+            };
+            if !model.nodes.kind.contains(&NodeKind::Kinematic) {
+                let message = format!(
+                    "effects.bone_motion moves the nodes attached to moving bone, and {which} has none (no node of kind \"kinematic\")"
+                );
+                return Err(SceneLoadError::Model { path: file, message });
+            }
+        }
         model.validate().map_err(|e| SceneLoadError::Model { path: file, message: e.to_string() })?;
         Ok(model)
     }

@@ -24,6 +24,12 @@ pub enum SimulationBuildError {
         /// Which effect.
         effect: &'static str,
     },
+    /// `bone_motion` is on but moves nothing: `bone` is off, or the model has no kinematic
+    /// node.
+    #[error(
+        "bone_motion moves the model's kinematic nodes with bone on, and there are none: set bone = true, and mark the moving bone's nodes kinematic (a generated model's scene does so when it asks for bone_motion; a model file gives them kind=\"kinematic\")"
+    )]
+    NothingToMove,
     /// The step is not finite and positive, or sub-steps are zero.
     #[error("time step must be finite and positive, sub-steps at least 1")]
     BadStep,
