@@ -38,9 +38,9 @@
 //! default limb pressed 8 mm at ratio 8: the force within 0.05 %, every node within 0.07 mm,
 //! `core/tests/multirate.rs`).
 //!
-//! Only the region feels grasps and effects changed through
-//! [`Simulation::effects_mut`](super::Simulation::effects_mut) (the tool reaches the bulk too);
-//! the bulk keeps the loads and handles it was built with. State written through
+//! Effects changed through [`Simulation::effects_mut`](super::Simulation::effects_mut) reach
+//! the region at the next tick; the tool, the loads and the handles (grasps among them) reach
+//! the bulk with the next exchange, as the region had them then. State written through
 //! [`Simulation::state_mut`](super::Simulation::state_mut) on nodes outside the region is
 //! overwritten at the next exchange.
 
@@ -579,6 +579,10 @@ struct Packet<T: Real> {
     v: Vec3s<T>,
     /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
+    /// The caller's loads and handles at `region_time` (model node indices), for the bulk's
+    /// step.
+    loads: Vec<PointLoad>,
+    handles: Vec<DragHandle>,
     /// Compute time of the bulk's step that filled `x` and `v`, ns.
     step_ns: u64,
     /// Time the builder's thread took to build `relocation` and its bulk, ns (0 without one).
@@ -708,6 +712,14 @@ fn gather<T: Real>(from: &Vec3s<T>, nodes: &[u32], into: &mut Vec3s<T>) {
     }
 }
 
+/// `into` set to `from`, its capacity at least `from`'s: allocates only when `from` has
+/// outgrown it (a caller reserving room for more, once).
+fn copy_list<E: Copy>(from: &Vec<E>, into: &mut Vec<E>) {
+    into.clear();
+    into.reserve(from.capacity());
+    into.extend_from_slice(from);
+}
+
 /// `into[nodes[k]] = from[k]` for every `k`, per axis.
 fn scatter<T: Real>(from: &Vec3s<T>, nodes: &[u32], into: &mut Vec3s<T>) {
     for (dst, src) in into.slices_mut().into_iter().zip(from.slices()) {
@@ -756,6 +768,8 @@ impl<T: Real> Multirate<T> {
             x: full.x.clone(),
             v: full.v.clone(),
             tool: None,
+            loads: effects.loads.clone(),
+            handles: effects.handles.clone(),
             step_ns: 0,
             build_ns: 0,
             finite: true,
@@ -945,6 +959,8 @@ impl<T: Real> Multirate<T> {
         let Some(mut packet) = self.packet.take() else { return };
         packet.region_time = region.time;
         packet.tool = self.effects.tool.map(|t| SphereTool { start: t.centre(region.time), velocity: [0.0; 3], ..t });
+        copy_list(&self.effects.loads, &mut packet.loads);
+        copy_list(&self.effects.handles, &mut packet.handles);
         gather(&region.x, &self.layout.core_local, &mut packet.core_x);
         gather(&region.v, &self.layout.core_local, &mut packet.core_v);
         packet.relocation = retired.or(packet.relocation.take());
@@ -1174,7 +1190,10 @@ fn bulk_loop<T: Real>(
         // A region sent and not taken (the bulk's state was refused) is dropped.
         let unadopted = pending.take();
         let core = &lists.core;
-        bulk.effects_mut().tool = packet.tool;
+        let effects = bulk.effects_mut();
+        effects.tool = packet.tool;
+        copy_list(&packet.loads, &mut effects.loads);
+        copy_list(&packet.handles, &mut effects.handles);
         let state = bulk.state_mut();
         scatter(&packet.core_x, core, &mut state.x);
         scatter(&packet.core_v, core, &mut state.v);

@@ -394,7 +394,7 @@ impl<T: Real> Simulation<T> {
 
     /// The effects in the loop. Loads and handle targets may be changed between steps;
     /// the guard catches non-finite values put here. With multirate stepping, changes reach
-    /// the region only (loads and handles on the bulk's nodes keep their built values).
+    /// the region at the next tick and the bulk (tool, loads, handles) with its next step.
     pub fn effects_mut(&mut self) -> &mut Effects {
         self.verlet.valid_at = None;
         match &mut self.multirate {
