@@ -32,7 +32,7 @@ pub struct FitOptions {
     pub model_grid: Option<GridSize>,
     /// Annealing seed.
     pub seed: u64,
-    /// Most objective evaluations per layer's annealing (default 1500).
+    /// Most objective evaluations per annealing run (default 1500).
     pub max_evaluations: u32,
     /// Output folder.
     pub out: PathBuf,
@@ -85,12 +85,12 @@ fn fit_three(
     settings: &FitSettings,
     bars: &MultiProgress,
 ) -> Result<[LayerFit; 3], String> {
-    let style = ProgressStyle::with_template("{prefix:>20} [{bar:30}] {pos}/{len} evaluations, {msg}")
+    let style = ProgressStyle::with_template("{prefix:>20} [{bar:30}] {pos} evaluations (at most {len}), {msg}")
         .unwrap_or_else(|_| ProgressStyle::default_bar());
     let progress: Vec<(ProgressBar, std::sync::Mutex<f64>)> = targets
         .iter()
         .map(|t| {
-            let bar = bars.add(ProgressBar::new(settings.anneal.max_evaluations as u64));
+            let bar = bars.add(ProgressBar::new(settings.most_evaluations() as u64));
             bar.set_style(style.clone());
             bar.set_prefix(format!("{} {label}", t.name));
             (bar, std::sync::Mutex::new(f64::INFINITY))

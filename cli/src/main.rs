@@ -175,7 +175,8 @@ enum Command {
         /// Seed of the annealing's random stream.
         #[arg(long, default_value_t = 2008)]
         seed: u64,
-        /// Most objective evaluations per layer's annealing (each one a virtual tensile test).
+        /// Most objective evaluations per annealing run (each one a virtual tensile test); a
+        /// layer takes up to four runs per objective, fewer once a run gains under 1 %.
         #[arg(long, default_value_t = 1500, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
         max_evaluations: u32,
         /// Output folder.

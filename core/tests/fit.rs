@@ -146,6 +146,12 @@ fn fine_grid_skin_fitted_to_its_strains_follows_the_tissue_works() {
     let geometry = LayerGeometry { spacing_m: 0.00572, thickness_m: 0.002 };
     let fit = fit_layer(&targets, geometry, &settings, |_| {}).unwrap();
     assert_eq!(fit.objective, FitObjective::Strain, "moduli psi {}", fit.moduli_psi);
+    // Both searches ran, past one annealing run's evaluations and within the bound.
+    let evaluations = fit.anneal.history.len();
+    assert!(
+        evaluations > settings.anneal.max_evaluations && evaluations <= settings.most_evaluations(),
+        "{evaluations}"
+    );
     assert!(fit.moduli_psi >= settings.anneal.psi_stop);
     let e = curve_error(&targets, &fit.best_curve).unwrap();
     assert!(e.rms <= 0.05 && e.max <= 0.10 && e.low_strain.abs() <= 0.10, "{e:?}");

@@ -35,6 +35,24 @@ impl Default for FitSettings {
     }
 }
 
+impl FitSettings {
+    /// Most evaluations of ψ one layer's fit can take: the moduli's search (correction steps
+    /// from the first guess, then up to `restarts` annealing runs of at most
+    /// `max_evaluations + 1` evaluations, each followed by correction steps) and, when that
+    /// does not converge, the strains' search (up to `restarts` annealing runs). Most fits stop
+    /// far sooner: ψ below the stop, or a reheated run gaining under 1 %.
+    ///
+    /// ```
+    /// use lamina_core::fit::FitSettings;
+    /// // 8 x 5 correction steps and 2 x 4 runs of 1,501 evaluations.
+    /// assert_eq!(FitSettings::default().most_evaluations(), 12_048);
+    /// ```
+    pub fn most_evaluations(&self) -> usize {
+        let run = self.anneal.max_evaluations + 1;
+        self.polish_steps * (1 + self.restarts) + 2 * self.restarts * run
+    }
+}
+
 /// The layer's geometry in the model being fitted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LayerGeometry {
