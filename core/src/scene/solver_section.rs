@@ -4,7 +4,7 @@
 use super::section::{FieldError, finite3, non_negative};
 use crate::solver::{
     IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_FACTORED_ITERATIONS,
-    MAX_MULTIRATE_RATIO, MAX_THREADS, MultirateSettings, SimdLevel, Substeps,
+    MAX_MULTIRATE_RATIO, MAX_SUBSTEPS, MAX_THREADS, MultirateSettings, SimdLevel, Substeps,
 };
 use serde::Deserialize;
 
@@ -57,8 +57,12 @@ pub(super) fn solver_parameters(
     match raw.substeps {
         None => {}
         Some(toml::Value::String(v)) if v == "auto" => solver.substeps = Substeps::Auto,
-        Some(toml::Value::Integer(n)) if (1..=100_000).contains(&n) => solver.substeps = Substeps::Fixed(n as u32),
-        Some(_) => return Err(FieldError::new("solver.substeps", "\"auto\" or an integer from 1 to 100000")),
+        Some(toml::Value::Integer(n)) if (1..=i64::from(MAX_SUBSTEPS)).contains(&n) => {
+            solver.substeps = Substeps::Fixed(n as u32)
+        }
+        Some(_) => {
+            return Err(FieldError::new("solver.substeps", format!("\"auto\" or an integer from 1 to {MAX_SUBSTEPS}")));
+        }
     }
     if let Some(t) = raw.threads {
         if !(1..=MAX_THREADS).contains(&t) {
@@ -191,6 +195,8 @@ mod tests {
             ("integrator = \"leapfrog\"\n", "solver.integrator"),
             ("substeps = 0\n", "solver.substeps"),
             ("substeps = \"many\"\n", "solver.substeps"),
+            // Above the solver's cap: refused here, at its line, not when the simulation is built.
+            ("substeps = 10001\n", "solver.substeps"),
             ("threads = 0\n", "solver.threads"),
             ("simd = \"sse9\"\n", "solver.simd"),
             ("stability_safety = -0.5\n", "solver.stability_safety"),
