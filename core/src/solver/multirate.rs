@@ -500,6 +500,7 @@ impl RegionBuilder {
             &relocation.layout.partition,
             &self.bulk_params,
             &self.effects,
+            capacity,
             Some(self.known_bulk_stability),
         )?;
         Ok(Built { relocation, bulk })
@@ -530,15 +531,21 @@ pub(crate) fn build_region<T: Real>(
 }
 
 /// The bulk's simulation of `model` at rest with `partition`'s core held
-/// ([`Partition::bulk_model`]); `params` the bulk's, `known` skips the stiffest-mode estimate.
+/// ([`Partition::bulk_model`]); `params` the bulk's, its loads and handles lists holding at
+/// least `capacity` (loads, handles) entries (each exchange copies the caller's into them);
+/// `known` skips the stiffest-mode estimate.
 pub(crate) fn build_bulk<T: Real>(
     model: &Model,
     partition: &Partition,
     params: &super::IntegrationParameters,
     effects: &Effects,
+    capacity: (usize, usize),
     known: Option<super::critical_step::StabilityEstimate>,
 ) -> Result<super::Simulation<T>, super::SimulationBuildError> {
-    super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), effects.clone(), known)
+    let mut bulk_effects = effects.clone();
+    bulk_effects.loads.reserve(capacity.0);
+    bulk_effects.handles.reserve(capacity.1);
+    super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), bulk_effects, known)
 }
 
 /// The first frame epoch of the next multirate simulation built in this process; each takes
@@ -1310,7 +1317,7 @@ mod tests {
         let Relocation { layout, region } =
             build_region::<f64>(&model, &params, &effects, &settings, (0, 0), None).unwrap();
         let bulk_params = crate::solver::IntegrationParameters { dt: params.dt * 4.0, ..params.clone() };
-        let bulk = build_bulk::<f64>(&model, &layout.partition, &bulk_params, &effects, None).unwrap();
+        let bulk = build_bulk::<f64>(&model, &layout.partition, &bulk_params, &effects, (0, 0), None).unwrap();
         let mut m = Multirate::start(&model, bulk, layout, None, &settings, effects, None).unwrap();
         // Defer: a bulk step may take three ticks of wall-clock time.
         assert_eq!(m.late_after, Some(Duration::from_secs_f64(3.0 * params.dt)));

@@ -230,7 +230,7 @@ impl<T: Real> Simulation<T> {
         let Relocation { layout, region: mut sim } =
             build_region::<T>(model, &region_params, &effects, &first, capacity, None)?;
         let bulk_start = Instant::now();
-        let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, None)?;
+        let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, capacity, None)?;
         let build_exchanges = settings.build_exchanges.unwrap_or_else(|| match settings.late_build {
             // Taken as soon as it is built.
             LateBuild::Defer => DEFER_BUILD_EXCHANGES,
