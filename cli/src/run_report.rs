@@ -101,6 +101,7 @@ impl RunContext {
         let multirate = status.map_or(serde_json::Value::Null, |m| {
             serde_json::json!({
                 "region_nodes": m.region_nodes,
+                "region_radius_m": m.radius,
                 "bulk_nodes": m.bulk_nodes,
                 "ratio": m.ratio,
                 "bulk_steps": m.bulk_steps,

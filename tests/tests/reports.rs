@@ -220,6 +220,8 @@ fn multirate_run_reports_its_coupling_works() {
     let free = model.nodes.kind.iter().filter(|k| **k == lamina_core::model::NodeKind::Free).count() as u64;
     assert_eq!(count("region_nodes") + count("bulk_nodes"), free, "{m}");
     assert!(count("region_nodes") > 0 && count("bulk_nodes") > count("region_nodes"), "{m}");
+    // The scene's 5 cm: its 12 mm tool needs no wider region.
+    assert_eq!(m["region_radius_m"].as_f64(), Some(0.05), "{m}");
     // One bulk step per 8 ticks, counting the untimed warm-up frames and any skipped tick,
     // and the ticks the loop went on past a bulk step late in real time.
     let ticks = c["ticks"].as_u64().unwrap();
