@@ -172,12 +172,11 @@ const SHRINK_FRACTION: f64 = 0.9;
 ///
 /// ```
 /// use lamina_core::solver::region_radius;
-/// assert_eq!(region_radius(0.025, Some(0.012)), 0.025); // the 12 mm tool fits
-/// assert!((region_radius(0.025, Some(0.03)) - 0.04).abs() < 1e-12); // a 3 cm tool: 4 cm
-/// assert_eq!(region_radius(0.025, None), 0.025); // no tool
+/// assert_eq!(region_radius(0.025, 0.012), 0.025); // the 12 mm tool fits
+/// assert!((region_radius(0.025, 0.03) - 0.04).abs() < 1e-12); // a 3 cm tool: 4 cm
 /// ```
-pub fn region_radius(radius: f64, tool_radius: Option<f64>) -> f64 {
-    tool_radius.map_or(radius, |r| radius.max(r / (1.0 - RECENTRE_FRACTION)))
+pub fn region_radius(radius: f64, tool_radius: f64) -> f64 {
+    radius.max(tool_radius / (1.0 - RECENTRE_FRACTION))
 }
 
 /// Springs between the region's edge and its core: the nodes between are stepped by both
@@ -375,10 +374,8 @@ impl Partition {
 
 /// A partition with the index maps the exchange uses.
 pub(crate) struct Layout {
-    /// Centre of the region's sphere, m.
-    centre: [f64; 3],
-    /// Radius of the region's sphere, m.
-    radius: f64,
+    /// The region's sphere.
+    sphere: Sphere,
     pub(crate) partition: Partition,
     /// The region's nodes, indices in the region's model (in [`Partition::inner`] order).
     inner_local: Vec<u32>,
@@ -393,7 +390,7 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    fn new(partition: Partition, centre: [f64; 3], radius: f64) -> Self {
+    fn new(partition: Partition, sphere: Sphere) -> Self {
         let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
         let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
         let overlap_local = local(&partition.overlap);
@@ -403,7 +400,7 @@ impl Layout {
             .filter(|&&i| partition.local_of[i as usize] != u32::MAX)
             .map(|&i| (partition.local_of[i as usize], i))
             .unzip();
-        Self { centre, radius, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
+        Self { sphere, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
     }
 
     /// `effects` (model node indices) in the region's node indices, into `into`: loads and
@@ -521,7 +518,7 @@ pub(crate) fn build_region<T: Real>(
     let partition = Partition::of(model, settings);
     partition.check(settings).map_err(super::SimulationBuildError::Multirate)?;
     let region_model = partition.region_model(model);
-    let layout = Layout::new(partition, settings.centre, settings.radius);
+    let layout = Layout::new(partition, Sphere { centre: settings.centre, radius: settings.radius });
     let mut region_effects = effects.clone();
     region_effects.loads.reserve(capacity.0);
     region_effects.handles.reserve(capacity.1);
@@ -587,7 +584,7 @@ struct Packet<T: Real> {
     /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
     /// The caller's loads and handles at `region_time` (model node indices), for the bulk's
-    /// step.
+    /// step; their capacities, at least the caller's, size the lists of a region built here.
     loads: Vec<PointLoad>,
     handles: Vec<DragHandle>,
     /// Compute time of the bulk's step that filled `x` and `v`, ns.
@@ -601,8 +598,6 @@ struct Packet<T: Real> {
     recentre: Option<Sphere>,
     /// Bulk to region: the region asked for with the packet before could not be built.
     recentre_refused: bool,
-    /// The loads and handles capacity of the caller's effects, for a region built here.
-    effects_capacity: (usize, usize),
     /// Region to bulk: the region took the relocation this packet brought, so from this
     /// packet on the core and outer lists are the relocation's.
     adopted: bool,
@@ -782,7 +777,6 @@ impl<T: Real> Multirate<T> {
             finite: true,
             recentre: None,
             recentre_refused: false,
-            effects_capacity: (0, 0),
             adopted: false,
             relocation: None,
         });
@@ -803,8 +797,8 @@ impl<T: Real> Multirate<T> {
             region_nodes: layout.partition.inner.len(),
             bulk_nodes: layout.partition.outer.len(),
             ratio: settings.ratio,
-            centre: layout.centre,
-            radius: layout.radius,
+            centre: layout.sphere.centre,
+            radius: layout.sphere.radius,
             build_exchanges,
             ..MultirateStatus::default()
         };
@@ -949,8 +943,8 @@ impl<T: Real> Multirate<T> {
         region.time = self.full.time;
         self.status.region_nodes = self.layout.partition.inner.len();
         self.status.bulk_nodes = self.layout.partition.outer.len();
-        self.status.centre = self.layout.centre;
-        self.status.radius = self.layout.radius;
+        self.status.centre = self.layout.sphere.centre;
+        self.status.radius = self.layout.sphere.radius;
         self.status.recentres += 1;
         self.refused_at = None;
         if let Some(p) = self.packet.as_mut() {
@@ -973,7 +967,7 @@ impl<T: Real> Multirate<T> {
         packet.relocation = retired.or(packet.relocation.take());
         packet.recentre = None;
         if let Some(tool) = packet.tool.filter(|_| self.follow_tool && self.requested.is_none()) {
-            let wanted = Sphere { centre: tool.start, radius: region_radius(self.radius, Some(tool.radius)) };
+            let wanted = Sphere { centre: tool.start, radius: region_radius(self.radius, tool.radius) };
             // Built again when the tool strays from its centre, outgrows it, or has shrunk
             // well inside a region grown for it.
             let differs = |from: &Sphere| {
@@ -981,10 +975,8 @@ impl<T: Real> Multirate<T> {
                     || wanted.radius > from.radius
                     || wanted.radius < SHRINK_FRACTION * from.radius
             };
-            let current = Sphere { centre: self.layout.centre, radius: self.layout.radius };
-            if differs(&current) && self.refused_at.as_ref().is_none_or(differs) {
+            if differs(&self.layout.sphere) && self.refused_at.as_ref().is_none_or(differs) {
                 packet.recentre = Some(wanted);
-                packet.effects_capacity = (self.effects.loads.capacity(), self.effects.handles.capacity());
                 self.requested = Some(wanted);
             }
         }
@@ -1232,7 +1224,8 @@ fn bulk_loop<T: Real>(
             }
         }
         let request = packet.recentre.take();
-        let capacity = packet.effects_capacity;
+        // The packet's lists hold at least the caller's capacity (`copy_list`).
+        let capacity = (packet.loads.capacity(), packet.handles.capacity());
         if let Some((sphere, builder)) = request.zip(builder.as_ref()) {
             let build_exchanges = builder.settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
             match start_build::<T>(builder, sphere, capacity) {

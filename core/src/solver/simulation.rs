@@ -222,9 +222,7 @@ impl<T: Real> Simulation<T> {
         let capacity = (effects.loads.capacity(), effects.handles.capacity());
         // A region that follows the tool starts wide enough for it.
         let first = match (settings.follow_tool, &effects.tool) {
-            (true, Some(tool)) => {
-                MultirateSettings { radius: region_radius(settings.radius, Some(tool.radius)), ..settings }
-            }
+            (true, Some(tool)) => MultirateSettings { radius: region_radius(settings.radius, tool.radius), ..settings },
             _ => settings,
         };
         let Relocation { layout, region: mut sim } =
