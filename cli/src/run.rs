@@ -103,7 +103,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     // frame between two sub-steps, so a scene with long frames still stops within one
     // sub-step's work.
     let mut stopped_after: Option<u64> = None;
-    for _ in 0..10 {
+    for _ in 0..warm_up_ticks(sim.multirate_status().map(|m| m.ratio)) {
         let before = sim.counters().substeps;
         if !sim.step_or_stop(&STOP) {
             stopped_after = Some(sim.counters().substeps - before);
@@ -273,6 +273,17 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
 }
 
 /// Refuses run lengths and tick rings outside their bounds, naming the option and value.
+/// Ticks stepped before the timed loop: at least 10. With multirate stepping at `ratio`, the
+/// warm-up ends on the tick after an exchange, so the timed loop's first exchange is a whole
+/// bulk step of real time later. (Warm-up ticks run back to back: the timed loop's first
+/// exchange would otherwise come milliseconds after the warm-up's, and wait for its step.)
+fn warm_up_ticks(multirate_ratio: Option<u32>) -> u32 {
+    match multirate_ratio {
+        Some(ratio) if ratio > 0 => ratio * 10u32.div_ceil(ratio) + 1,
+        _ => 10,
+    }
+}
+
 fn check_options(opts: &RunOptions) -> Result<(), String> {
     if let Some(s) = opts.seconds
         && !(s.is_finite() && s > 0.0 && s <= 1e9)
@@ -554,10 +565,14 @@ fn integrator_reason<T: Real>(sim: &Simulation<T>, rate_hz: u32) -> String {
         .max(1.0);
     match sim.params().integrator {
         IntegratorKind::ImplicitFactored => format!(
-            "integrator: implicit_factored, one implicit step of {} PCG iteration(s) per tick where symplectic Euler \
+            "integrator: implicit_factored, one implicit step of {} PCG iteration(s) per tick{} where symplectic Euler \
              needs {explicit_steps:.0} sub-steps below its critical step; the cheapest per tick at the explicit press \
              force, with more damping of fast motion (docs/solvers.md, lamina bench capacity, lamina study accuracy)",
-            sim.params().factored_iterations
+            sim.params().factored_iterations,
+            match sim.params().factor_storage {
+                lamina_core::solver::FactorStorage::Full => "",
+                lamina_core::solver::FactorStorage::Half => ", its preconditioner's factor stored in binary16",
+            }
         ),
         IntegratorKind::SymplecticEuler => format!(
             "integrator: symplectic Euler, {explicit_steps:.0} sub-step(s) per tick; the most accurate per unit of \
@@ -572,6 +587,18 @@ fn integrator_reason<T: Real>(sim: &Simulation<T>, rate_hz: u32) -> String {
 mod tests {
     use super::*;
     use lamina_core::solver::MultirateStatus;
+
+    #[test]
+    fn warm_up_ends_on_the_tick_after_an_exchange_works() {
+        assert_eq!(warm_up_ticks(None), 10);
+        for ratio in 2..=lamina_core::solver::MAX_MULTIRATE_RATIO {
+            let n = warm_up_ticks(Some(ratio));
+            // Exchanges come on ticks 0, ratio, 2·ratio, ...: the last warm-up tick is one,
+            // and the warm-up is at least 10 ticks and less than a cycle more.
+            assert_eq!((n - 1) % ratio, 0, "ratio {ratio}: {n} ticks");
+            assert!((10..10 + ratio + 1).contains(&n), "ratio {ratio}: {n} ticks");
+        }
+    }
 
     #[test]
     fn coupling_warning_names_a_gap_above_three_millimetres_works() {

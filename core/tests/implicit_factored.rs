@@ -7,7 +7,7 @@ use lamina_core::law::{Bilinear, SpringLaw};
 use lamina_core::model::{Layer, Model, NodeKind, Tissue};
 use lamina_core::real::Real;
 use lamina_core::scene::Scene;
-use lamina_core::solver::{Effects, IntegrationParameters, IntegratorKind, Simulation};
+use lamina_core::solver::{Effects, FactorStorage, IntegrationParameters, IntegratorKind, Simulation};
 
 fn hanging_chain(n: usize, law: SpringLaw, m: f64, l0: f64) -> Model {
     let mut model = Model::default();
@@ -80,9 +80,12 @@ fn default_scene_with_tool<T: Real>(integrator: IntegratorKind, threads: usize) 
 }
 
 /// Presses the built-in default scene's tool 8 mm into the skin over 0.5 s, holds it to
-/// 2 s, and returns the vertical force on the tool, N.
-fn press_force(integrator: IntegratorKind) -> f64 {
-    let (mut sim, origin) = default_scene_with_tool::<f32>(integrator, Scene::builtin_default().solver.threads);
+/// 2 s, and returns the vertical force on the tool, N; the factor stored as `storage` asks.
+fn press_force(integrator: IntegratorKind, storage: FactorStorage) -> f64 {
+    let (mut sim, origin) = common::limb_with_tool::<f32>(Scene::builtin_default(), |params, _| {
+        params.integrator = integrator;
+        params.factor_storage = storage;
+    });
     for frame in 0..2000 {
         let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
         sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
@@ -94,13 +97,17 @@ fn press_force(integrator: IntegratorKind) -> f64 {
 
 #[test]
 fn implicit_factored_press_force_matches_the_explicit_solver_works() {
-    let explicit = press_force(IntegratorKind::SymplecticEuler);
-    let factored = press_force(IntegratorKind::ImplicitFactored);
+    let explicit = press_force(IntegratorKind::SymplecticEuler, FactorStorage::Full);
     assert!(explicit > 0.05, "the tool presses ({explicit} N)");
-    assert!(
-        (factored - explicit).abs() <= 0.05 * explicit,
-        "implicit_factored {factored} N, symplectic Euler {explicit} N"
-    );
+    // The factor in f32 and in binary16: the preconditioner's rounding leaves the force where
+    // the explicit solver puts it.
+    for storage in [FactorStorage::Full, FactorStorage::Half] {
+        let factored = press_force(IntegratorKind::ImplicitFactored, storage);
+        assert!(
+            (factored - explicit).abs() <= 0.05 * explicit,
+            "implicit_factored ({storage:?} factor) {factored} N, symplectic Euler {explicit} N"
+        );
+    }
 }
 
 #[test]

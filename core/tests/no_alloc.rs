@@ -135,6 +135,15 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
             step_counted(&mut sim, 7, &format!("{integrator} with {threads} thread(s)"));
         }
     }
+    // The factor in binary16 (`factor_storage = "f16"`): its own sweep kernels.
+    for threads in [1, 2] {
+        let mut params = scene.solver.clone();
+        params.integrator = IntegratorKind::ImplicitFactored;
+        params.factor_storage = lamina_core::solver::FactorStorage::Half;
+        params.threads = threads;
+        let mut sim = Simulation::<f32>::new(&model, params, effects.clone()).unwrap();
+        step_counted(&mut sim, 7, &format!("implicit_factored, binary16 factor, with {threads} thread(s)"));
+    }
     // Multirate stepping: the region on this thread, the bulk on its own (counted too: the
     // allocator sees every thread), exchanging every 4 ticks; then with the tool sliding 3 cm
     // along the limb, the region following it: regions are built on the bulk's thread, and

@@ -3,7 +3,7 @@
 
 use super::section::{FieldError, finite3, non_negative};
 use crate::solver::{
-    IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_FACTORED_ITERATIONS,
+    FactorStorage, IntegrationParameters, IntegratorKind, LateBuild, MAX_BUILD_EXCHANGES, MAX_FACTORED_ITERATIONS,
     MAX_MULTIRATE_RATIO, MAX_SUBSTEPS, MAX_THREADS, MultirateSettings, SimdLevel, Substeps,
 };
 use serde::Deserialize;
@@ -23,6 +23,7 @@ pub(super) struct RawSolver {
     rayleigh_beta: Option<f64>,
     factored_iterations: Option<u32>,
     factored_preconditioner: Option<bool>,
+    factor_storage: Option<String>,
     multirate: Option<RawMultirate>,
 }
 
@@ -103,6 +104,13 @@ pub(super) fn solver_parameters(
     if let Some(on) = raw.factored_preconditioner {
         solver.factored_preconditioner = on;
     }
+    if let Some(storage) = raw.factor_storage {
+        solver.factor_storage = match storage.as_str() {
+            "full" => FactorStorage::Full,
+            "f16" => FactorStorage::Half,
+            _ => return Err(FieldError::new("solver.factor_storage", "\"full\" or \"f16\"")),
+        };
+    }
     if let Some(m) = raw.cg_max_iterations {
         if m == 0 {
             return Err(FieldError::new("solver.cg_max_iterations", "at least 1"));
@@ -179,6 +187,8 @@ mod tests {
         assert_eq!((p.integrator, p.substeps, p.threads), (IntegratorKind::Rk4, Substeps::Fixed(4), 2));
         assert_eq!(p.cg_tolerance, 1e-6);
         assert_eq!(parse("substeps = \"auto\"\n").unwrap().substeps, Substeps::Auto);
+        assert_eq!(p.factor_storage, FactorStorage::Full);
+        assert_eq!(parse("factor_storage = \"f16\"\n").unwrap().factor_storage, FactorStorage::Half);
         assert_eq!(p.multirate, None);
         let body = "[multirate]\ncentre = [0.0, 0.1, 0.0]\nradius = 0.02\nratio = 4\nfollow_tool = false\nbuild_exchanges = 12\nlate_build = \"wait\"\n";
         let m = parse(body).unwrap().multirate.expect("multirate on");
@@ -202,6 +212,7 @@ mod tests {
             ("stability_safety = -0.5\n", "solver.stability_safety"),
             ("cg_tolerance = nan\n", "solver.cg_tolerance"),
             ("factored_iterations = 0\n", "solver.factored_iterations"),
+            ("factor_storage = \"f8\"\n", "solver.factor_storage"),
             ("rayleigh_beta = inf\n", "solver.rayleigh_beta"),
             ("max_substeps = 0\n", "solver.max_substeps"),
             ("cg_max_iterations = 0\n", "solver.cg_max_iterations"),

@@ -18,7 +18,7 @@
 
 use super::dynamics::Dynamics;
 use super::simd::SimdLevel;
-use super::sparse_cholesky::{CholeskyFactor, FactorBuildError, SolveScratch};
+use super::sparse_cholesky::{CholeskyFactor, FactorBuildError, FactorStorage, SolveScratch};
 use super::vec3s::Vec3s;
 use super::worker_pool::WorkerPool;
 use crate::law::SpringLaw;
@@ -32,6 +32,8 @@ const HELD: u32 = u32::MAX;
 pub struct FactoredPreconditioner<T> {
     /// Per node: its row in factor order, or [`HELD`].
     row: Vec<u32>,
+    /// Per node: `1/√P_ii`; the factor is of `S P S` (unit diagonal), so `P⁻¹ = S (S P S)⁻¹ S`.
+    scale: Vec<T>,
     factor: CholeskyFactor<T>,
     scratch: SolveScratch<T>,
     work: Vec3s<T>,
@@ -39,7 +41,7 @@ pub struct FactoredPreconditioner<T> {
 
 impl<T: Real> FactoredPreconditioner<T> {
     /// Factors `P` for `model` under `dynamics`' effects with the coefficients of
-    /// `c_m M + c_c C + c_k K`.
+    /// `c_m M + c_c C + c_k K`, stored as `storage` asks.
     pub fn new(
         model: &Model,
         dynamics: &Dynamics<T>,
@@ -47,6 +49,7 @@ impl<T: Real> FactoredPreconditioner<T> {
         cc: f64,
         ck: f64,
         simd: SimdLevel,
+        storage: FactorStorage,
     ) -> Result<Self, FactorBuildError> {
         let n = model.nodes.len();
         let mut row = vec![HELD; n];
@@ -106,18 +109,25 @@ impl<T: Real> FactoredPreconditioner<T> {
                 diag[r as usize] += ck * hd.stiffness + cc * hd.damping;
             }
         }
-        lower.extend(diag.iter().enumerate().map(|(r, &v)| (r as u32, r as u32, v)));
+        // Scaled to a unit diagonal: every factor entry then lies within [-1, 1] and the
+        // inverses of its diagonal blocks near it, which binary16 storage needs.
+        let inv_sqrt: Vec<f64> = diag.iter().map(|&d| 1.0 / d.sqrt()).collect();
+        for (r, c, v) in lower.iter_mut() {
+            *v *= inv_sqrt[*r as usize] * inv_sqrt[*c as usize];
+        }
+        lower.extend((0..m).map(|r| (r, r, 1.0)));
         let factor = if dynamics.pool.threads() >= 2 {
             // Split at a plane across x, y or z, its two halves' sweeps on two threads.
             let keys = rest_coordinates(model, &row);
-            CholeskyFactor::<T>::new_bisected(m as usize, &lower, &keys, simd)?
+            CholeskyFactor::<T>::new_bisected(m as usize, &lower, &keys, simd, storage)?
         } else {
-            CholeskyFactor::<T>::new(m as usize, &lower, simd)?
+            CholeskyFactor::<T>::new(m as usize, &lower, simd, storage)?
         };
+        let scale = row.iter().map(|&r| if r == HELD { T::ZERO } else { T::from_f64(inv_sqrt[r as usize]) }).collect();
         for r in row.iter_mut().filter(|r| **r != HELD) {
             *r = factor.position(*r as usize) as u32;
         }
-        Ok(Self { row, scratch: factor.scratch(), work: Vec3s::zeros(factor.rhs_len()), factor })
+        Ok(Self { row, scale, scratch: factor.scratch(), work: Vec3s::zeros(factor.rhs_len()), factor })
     }
 
     /// Stored entries of the factor.
@@ -136,20 +146,21 @@ impl<T: Real> FactoredPreconditioner<T> {
         {
             let [w0, w1, w2] = self.work.slices_mut();
             let [r0, r1, r2] = r.slices();
-            for (((&p, &v0), &v1), &v2) in self.row.iter().zip(r0).zip(r1).zip(r2) {
+            for ((((&p, &s), &v0), &v1), &v2) in self.row.iter().zip(&self.scale).zip(r0).zip(r1).zip(r2) {
                 if p != HELD {
                     let p = p as usize;
-                    (w0[p], w1[p], w2[p]) = (v0, v1, v2);
+                    (w0[p], w1[p], w2[p]) = (s * v0, s * v1, s * v2);
                 }
             }
         }
         self.factor.solve_in_place(self.work.slices_mut(), &mut self.scratch, pool);
         let [w0, w1, w2] = self.work.slices();
         let [z0, z1, z2] = z.slices_mut();
-        for (((&p, z0), z1), z2) in self.row.iter().zip(z0.iter_mut()).zip(z1.iter_mut()).zip(z2.iter_mut()) {
+        let nodes = self.row.iter().zip(&self.scale);
+        for ((((&p, &s), z0), z1), z2) in nodes.zip(z0.iter_mut()).zip(z1.iter_mut()).zip(z2.iter_mut()) {
             (*z0, *z1, *z2) = if p != HELD {
                 let p = p as usize;
-                (w0[p], w1[p], w2[p])
+                (s * w0[p], s * w1[p], s * w2[p])
             } else {
                 (T::ZERO, T::ZERO, T::ZERO)
             };

@@ -31,7 +31,7 @@ use super::dynamics::{Dynamics, State};
 use super::factored_preconditioner::FactoredPreconditioner;
 use super::lane_block::{Block, LANES, ScalarBlock};
 use super::simd::SimdLevel;
-use super::sparse_cholesky::FactorBuildError;
+use super::sparse_cholesky::{FactorBuildError, FactorStorage};
 use super::spring_kernels::MIN_SPRING_LENGTH;
 use super::spring_runs::{Run, SpringRuns};
 use super::vec3s::Vec3s;
@@ -89,13 +89,15 @@ pub struct ImplicitFactored<T: Real> {
 
 impl<T: Real> ImplicitFactored<T> {
     /// Builds the integrator for `model` under `dynamics`' effects, stepping `h` seconds with
-    /// `iterations` conjugate-gradient iterations per step.
+    /// `iterations` conjugate-gradient iterations per step, its preconditioner's factor stored
+    /// as `storage` asks.
     pub fn new(
         model: &Model,
         dynamics: &Dynamics<T>,
         h: f64,
         iterations: u32,
         simd: SimdLevel,
+        storage: FactorStorage,
     ) -> Result<Self, FactorBuildError> {
         let n = model.nodes.len();
         let free: Vec<bool> = (0..n).map(|i| dynamics.free[i] != T::ZERO).collect();
@@ -113,7 +115,8 @@ impl<T: Real> ImplicitFactored<T> {
             })
             .collect();
         let alpha = dynamics.effects.viscous_damping.unwrap_or(0.0);
-        let pre = FactoredPreconditioner::new(model, dynamics, (1.0 + alpha * h) / (h * h), 1.0 / h, 1.0, simd)?;
+        let pre =
+            FactoredPreconditioner::new(model, dynamics, (1.0 + alpha * h) / (h * h), 1.0 / h, 1.0, simd, storage)?;
         let len = runs.padded_len();
         let z = || vec![T::ZERO; len];
         let mass_term = (0..n)

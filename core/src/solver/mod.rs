@@ -50,5 +50,6 @@ pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
 pub use simulation::{GuardTotals, Simulation, SimulationBuildError};
 pub use skin_volume::SkinVolume;
+pub use sparse_cholesky::FactorStorage;
 pub use spring_kernels::MIN_SPRING_LENGTH;
 pub use vec3s::Vec3s;

@@ -111,6 +111,10 @@ pub struct IntegrationParameters {
     /// Conjugate-gradient iterations per step (`implicit_factored` only). Default 1; 1 to
     /// [`MAX_FACTORED_ITERATIONS`](super::MAX_FACTORED_ITERATIONS) (64).
     pub factored_iterations: u32,
+    /// How the prefactored matrix's coefficients are stored (`implicit_factored`, and
+    /// `implicit_euler` with `factored_preconditioner`). Default [`FactorStorage::Full`], in
+    /// the simulation's precision; [`FactorStorage::Half`] streams half the bytes of f32.
+    pub factor_storage: super::FactorStorage,
     /// Rayleigh mass-proportional damping α, 1/s (implicit Euler only). Default 0.
     pub rayleigh_alpha: f64,
     /// Rayleigh stiffness-proportional damping β, s (implicit Euler only). Default 0.
@@ -145,6 +149,7 @@ impl Default for IntegrationParameters {
             cg_max_iterations: 200,
             factored_preconditioner: false,
             factored_iterations: 1,
+            factor_storage: super::FactorStorage::Full,
             rayleigh_alpha: 0.0,
             rayleigh_beta: 0.0,
             threads: 1,

@@ -317,6 +317,7 @@ impl<T: Real> Simulation<T> {
                 cc,
                 ck,
                 sim.params.simd,
+                sim.params.factor_storage,
             )
             .map_err(SimulationBuildError::Factor)?;
             sim.implicit.factored = Some(pre);
@@ -325,8 +326,9 @@ impl<T: Real> Simulation<T> {
         }
         if sim.params.integrator == IntegratorKind::ImplicitFactored {
             let h = sim.params.dt / sim.substeps as f64;
+            let p = &sim.params;
             let solver =
-                ImplicitFactored::new(model, &sim.dynamics, h, sim.params.factored_iterations, sim.params.simd)
+                ImplicitFactored::new(model, &sim.dynamics, h, p.factored_iterations, p.simd, p.factor_storage)
                     .map_err(SimulationBuildError::Factor)?;
             sim.factored = Some(solver);
             sim.dynamics.record_contacts = true;

@@ -18,7 +18,7 @@
 use crate::real::Real;
 use crate::solver::bisected_ordering::bisect;
 use crate::solver::disjoint::DisjointSlice;
-use crate::solver::lane_block::{Block, LANES, ScalarBlock};
+use crate::solver::lane_block::{Block, LANES, ScalarBlock, f16_from_f64};
 use crate::solver::simd::SimdLevel;
 use crate::solver::worker_pool::WorkerPool;
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -50,9 +50,92 @@ pub enum FactorBuildError {
     /// The matrix is not numerically positive definite.
     #[error("the system matrix is not positive definite")]
     NotPositiveDefinite,
+    /// A factor entry lies beyond the range of the storage asked for (binary16: 65,504).
+    #[error("a factor entry lies beyond the range of its binary16 storage")]
+    BeyondStorage,
     /// The sparse factorisation failed (out of memory or index overflow).
     #[error("sparse Cholesky factorisation failed: {0}")]
     Factorisation(String),
+}
+
+/// How the factor's coefficients are stored for the solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FactorStorage {
+    /// In the solve's precision `T`.
+    #[default]
+    Full,
+    /// As IEEE binary16 (2 bytes each, 11 significant bits), widened to `T` in registers: half
+    /// the bytes of `f32`, so a sweep that streams a factor larger than the caches takes about
+    /// half the memory traffic. Meant for matrices scaled to a unit diagonal, whose factor
+    /// entries lie within binary16's range (up to 65,504); [`CholeskyFactor::new`] refuses a
+    /// factor with an entry beyond it.
+    Half,
+}
+
+/// The packed coefficients, in the precision [`FactorStorage`] asks.
+#[derive(Clone, Debug)]
+enum Coefficients<T> {
+    Full(Vec<T>),
+    /// binary16 bits.
+    Half(Vec<u16>),
+}
+
+impl<T: Real> Coefficients<T> {
+    fn new(storage: FactorStorage) -> Self {
+        match storage {
+            FactorStorage::Full => Self::Full(Vec::new()),
+            FactorStorage::Half => Self::Half(Vec::new()),
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Self::Full(v) => v.len(),
+            Self::Half(v) => v.len(),
+        }
+    }
+
+    fn extend(&mut self, values: impl Iterator<Item = f64>) {
+        match self {
+            Self::Full(v) => v.extend(values.map(T::from_f64)),
+            Self::Half(v) => v.extend(values.map(f16_from_f64)),
+        }
+    }
+
+    /// True when every stored coefficient is finite (a binary16 beyond 65,504 is infinite).
+    fn all_finite(&self) -> bool {
+        match self {
+            Self::Full(v) => v.iter().all(|x| x.is_finite()),
+            Self::Half(v) => v.iter().all(|&h| h & 0x7c00 != 0x7c00),
+        }
+    }
+}
+
+/// Where a product's kernel reads its coefficients, a lane block at a time.
+trait CoefficientSource<T: Real>: Copy {
+    fn block<B: Block<T>>(self, at: usize) -> B;
+}
+
+/// Coefficients in `T`.
+#[derive(Clone, Copy)]
+struct FullValues<'a, T>(&'a [T]);
+
+impl<T: Real> CoefficientSource<T> for FullValues<'_, T> {
+    #[inline(always)]
+    fn block<B: Block<T>>(self, at: usize) -> B {
+        B::load(self.0, at)
+    }
+}
+
+/// Coefficients as binary16 bits.
+#[derive(Clone, Copy)]
+struct HalfValues<'a>(&'a [u16]);
+
+impl<T: Real> CoefficientSource<T> for HalfValues<'_> {
+    #[inline(always)]
+    fn block<B: Block<T>>(self, at: usize) -> B {
+        B::load_f16(self.0, at)
+    }
 }
 
 /// Which inputs of a packed product can be non-zero for a given output.
@@ -89,7 +172,7 @@ impl Packed {
 
     /// Appends `m(i, j)` (output `i`, input `j`) packed, and describes it.
     fn pack<T: Real>(
-        values: &mut Vec<T>,
+        values: &mut Coefficients<T>,
         outputs: usize,
         inputs: usize,
         shape: Shape,
@@ -101,7 +184,7 @@ impl Packed {
         while o0 < padded {
             let h = (padded - o0).min(TILE);
             for j in packed.inputs_of(o0, h) {
-                values.extend((o0..o0 + h).map(|i| T::from_f64(if i < outputs { m(i, j) } else { 0.0 })));
+                values.extend((o0..o0 + h).map(|i| if i < outputs { m(i, j) } else { 0.0 }));
             }
             o0 += h;
         }
@@ -163,7 +246,7 @@ pub struct CholeskyFactor<T> {
     position: Vec<u32>,
     supernodes: Vec<Supernode>,
     pattern: Vec<u32>,
-    values: Vec<T>,
+    values: Coefficients<T>,
     /// Largest product dimension, padded to whole lane blocks.
     longest: usize,
     simd: SimdLevel,
@@ -173,8 +256,14 @@ pub struct CholeskyFactor<T> {
 impl<T: Real> CholeskyFactor<T> {
     /// Factors the `n × n` symmetric matrix given by its lower-triangle entries
     /// `(row, col, value)` with `row ≥ col` (duplicates are summed); solves run with the
-    /// kernels of `simd` (lowered to what the CPU has), on one thread.
-    pub fn new(n: usize, lower: &[(u32, u32, f64)], simd: SimdLevel) -> Result<Self, FactorBuildError> {
+    /// kernels of `simd` (lowered to what the CPU has), on one thread, reading coefficients
+    /// stored as `storage` asks.
+    pub fn new(
+        n: usize,
+        lower: &[(u32, u32, f64)],
+        simd: SimdLevel,
+        storage: FactorStorage,
+    ) -> Result<Self, FactorBuildError> {
         let (symbolic, l_values) = factor_numeric(n, lower, None)?;
         let mut position = vec![0u32; n];
         match symbolic.perm() {
@@ -186,10 +275,13 @@ impl<T: Real> CholeskyFactor<T> {
             }
             None => position.iter_mut().enumerate().for_each(|(i, p)| *p = i as u32),
         }
-        let mut packer = Packer::<T>::new();
+        let mut packer = Packer::<T>::new(storage);
         let place = |first: usize, _width: usize, rows: &[usize]| Some((first, rows.to_vec()));
         pack_factor(&symbolic, &l_values, &mut packer, place)?;
         let Packer { supernodes, pattern, values, longest } = packer;
+        if !values.all_finite() {
+            return Err(FactorBuildError::BeyondStorage);
+        }
         Ok(Self { len: n, position, supernodes, pattern, values, longest, simd: simd.clamp_to_cpu(), split: None })
     }
 
@@ -203,11 +295,12 @@ impl<T: Real> CholeskyFactor<T> {
         lower: &[(u32, u32, f64)],
         keys: &[Vec<f64>],
         simd: SimdLevel,
+        storage: FactorStorage,
     ) -> Result<Self, FactorBuildError> {
         check_entries(n, lower)?;
         let Some(bisection) = bisect(n, lower, keys).map_err(|e| FactorBuildError::Factorisation(e.to_string()))?
         else {
-            return Self::new(n, lower, simd);
+            return Self::new(n, lower, simd, storage);
         };
         let (symbolic, l_values) = factor_numeric(n, lower, Some(&bisection.order))?;
         let (na, nb, ns) = (bisection.a, bisection.b, bisection.separator);
@@ -258,13 +351,16 @@ impl<T: Real> CholeskyFactor<T> {
             let first = if c == 0 { absolute(first) - boundary } else { absolute(first) };
             Some((first, mapped?))
         };
-        let mut packer = Packer::<T>::new();
+        let mut packer = Packer::<T>::new(storage);
         if !pack_factor(&symbolic, &l_values, &mut packer, place)? || !classes.is_sorted() {
-            return Self::new(n, lower, simd);
+            return Self::new(n, lower, simd, storage);
         }
         let a_end = classes.iter().filter(|&&c| c == 0).count();
         let b_end = a_end + classes.iter().filter(|&&c| c == 1).count();
         let Packer { supernodes, pattern, values, longest } = packer;
+        if !values.all_finite() {
+            return Err(FactorBuildError::BeyondStorage);
+        }
         Ok(Self {
             len: n + ns,
             position,
@@ -490,7 +586,7 @@ fn pack_factor<T: Real>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,f16c")]
 fn sweep_avx2<T: Real>(
     f: &CholeskyFactor<T>,
     range: std::ops::Range<usize>,
@@ -511,16 +607,31 @@ fn sweep<T: Real, B: Block<T>>(
 ) {
     // Plain loops, not closures: a closure is compiled outside the caller's
     // `#[target_feature]` context and its SIMD intrinsics become calls unless it is inlined.
+    match &f.values {
+        Coefficients::Full(v) => sweep_with::<T, B, _>(f, FullValues(v), range, dir, b, scratch),
+        Coefficients::Half(v) => sweep_with::<T, B, _>(f, HalfValues(v), range, dir, b, scratch),
+    }
+}
+
+#[inline(always)]
+fn sweep_with<T: Real, B: Block<T>, V: CoefficientSource<T>>(
+    f: &CholeskyFactor<T>,
+    values: V,
+    range: std::ops::Range<usize>,
+    dir: Sweep,
+    b: &mut [&mut [T]; 3],
+    scratch: &mut SweepScratch<T>,
+) {
     let supernodes = &f.supernodes[range];
     match dir {
         Sweep::Forward => {
             for s in supernodes {
-                forward::<T, B>(f, s, b, scratch);
+                forward::<T, B, V>(f, values, s, b, scratch);
             }
         }
         Sweep::Backward => {
             for s in supernodes.iter().rev() {
-                backward::<T, B>(f, s, b, scratch);
+                backward::<T, B, V>(f, values, s, b, scratch);
             }
         }
     }
@@ -529,7 +640,7 @@ fn sweep<T: Real, B: Block<T>>(
 /// `out = M x` for a packed product, the three components at once; `out` must hold the
 /// outputs padded to whole lane blocks.
 #[inline(always)]
-fn product<T: Real, B: Block<T>>(values: &[T], m: &Packed, x: [&[T]; 3], out: &mut [Vec<T>; 3]) {
+fn product<T: Real, B: Block<T>, V: CoefficientSource<T>>(values: V, m: &Packed, x: [&[T]; 3], out: &mut [Vec<T>; 3]) {
     let padded = (m.outputs as usize).div_ceil(LANES) * LANES;
     let zero = B::splat(T::ZERO);
     let mut at = m.start;
@@ -540,7 +651,7 @@ fn product<T: Real, B: Block<T>>(values: &[T], m: &Packed, x: [&[T]; 3], out: &m
         let mut acc = [[zero; 2]; 3];
         if h == TILE {
             for j in inputs {
-                let (l0, l1) = (B::load(values, at), B::load(values, at + LANES));
+                let (l0, l1): (B, B) = (values.block(at), values.block(at + LANES));
                 for c in 0..3 {
                     let xj = B::splat(x[c][j]);
                     acc[c][0] = acc[c][0].add(l0.mul(xj));
@@ -554,7 +665,7 @@ fn product<T: Real, B: Block<T>>(values: &[T], m: &Packed, x: [&[T]; 3], out: &m
             }
         } else {
             for j in inputs {
-                let l0 = B::load(values, at);
+                let l0: B = values.block(at);
                 for c in 0..3 {
                     acc[c][0] = acc[c][0].add(l0.mul(B::splat(x[c][j])));
                 }
@@ -570,8 +681,9 @@ fn product<T: Real, B: Block<T>>(values: &[T], m: &Packed, x: [&[T]; 3], out: &m
 
 /// One supernode of `b ← L⁻¹ b`.
 #[inline(always)]
-fn forward<T: Real, B: Block<T>>(
+fn forward<T: Real, B: Block<T>, V: CoefficientSource<T>>(
     f: &CholeskyFactor<T>,
+    values: V,
     s: &Supernode,
     b: &mut [&mut [T]; 3],
     scratch: &mut SweepScratch<T>,
@@ -580,7 +692,7 @@ fn forward<T: Real, B: Block<T>>(
     // x = D⁻¹ b_block, into the block's columns.
     {
         let x = [&b[0][first..first + width], &b[1][first..first + width], &b[2][first..first + width]];
-        product::<T, B>(&f.values, &s.inverse, x, &mut scratch.output);
+        product::<T, B, V>(values, &s.inverse, x, &mut scratch.output);
     }
     for c in 0..3 {
         b[c][first..first + width].copy_from_slice(&scratch.output[c][..width]);
@@ -591,7 +703,7 @@ fn forward<T: Real, B: Block<T>>(
     // b[pattern] −= L_below x.
     {
         let x = [&b[0][first..first + width], &b[1][first..first + width], &b[2][first..first + width]];
-        product::<T, B>(&f.values, &s.below, x, &mut scratch.output);
+        product::<T, B, V>(values, &s.below, x, &mut scratch.output);
     }
     // The three components in one pass over the pattern.
     let pattern = &f.pattern[s.pattern_start as usize..][..rows];
@@ -607,8 +719,9 @@ fn forward<T: Real, B: Block<T>>(
 
 /// One supernode of `b ← L⁻ᵀ b`.
 #[inline(always)]
-fn backward<T: Real, B: Block<T>>(
+fn backward<T: Real, B: Block<T>, V: CoefficientSource<T>>(
     f: &CholeskyFactor<T>,
+    values: V,
     s: &Supernode,
     b: &mut [&mut [T]; 3],
     scratch: &mut SweepScratch<T>,
@@ -624,7 +737,7 @@ fn backward<T: Real, B: Block<T>>(
             (*g0, *g1, *g2) = (b0[p], b1[p], b2[p]);
         }
         let [g0, g1, g2] = &scratch.input;
-        product::<T, B>(&f.values, &s.below_t, [&g0[..rows], &g1[..rows], &g2[..rows]], &mut scratch.output);
+        product::<T, B, V>(values, &s.below_t, [&g0[..rows], &g1[..rows], &g2[..rows]], &mut scratch.output);
         for c in 0..3 {
             for (a, (&bv, &v)) in scratch.input[c][..width]
                 .iter_mut()
@@ -640,7 +753,7 @@ fn backward<T: Real, B: Block<T>>(
     }
     // x_block = D⁻ᵀ a.
     let [a0, a1, a2] = &scratch.input;
-    product::<T, B>(&f.values, &s.inverse_t, [&a0[..width], &a1[..width], &a2[..width]], &mut scratch.output);
+    product::<T, B, V>(values, &s.inverse_t, [&a0[..width], &a1[..width], &a2[..width]], &mut scratch.output);
     for c in 0..3 {
         b[c][first..first + width].copy_from_slice(&scratch.output[c][..width]);
     }
@@ -650,7 +763,7 @@ fn backward<T: Real, B: Block<T>>(
 struct Packer<T> {
     supernodes: Vec<Supernode>,
     pattern: Vec<u32>,
-    values: Vec<T>,
+    values: Coefficients<T>,
     longest: usize,
 }
 
@@ -668,8 +781,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl<T: Real> Packer<T> {
-    fn new() -> Self {
-        Self { supernodes: Vec::new(), pattern: Vec::new(), values: Vec::new(), longest: 0 }
+    fn new(storage: FactorStorage) -> Self {
+        Self { supernodes: Vec::new(), pattern: Vec::new(), values: Coefficients::new(storage), longest: 0 }
     }
 
     /// Adds the supernode of columns `first..first + width`, its rows below the diagonal
@@ -800,16 +913,16 @@ mod tests {
     fn factor_solves_a_grid_laplacian_to_round_off_works() {
         let (n, lower) = grid_matrix(9, 7, 5);
         let b: Vec<[f64; 3]> = (0..n).map(|i| [(i % 7) as f64 - 3.0, (i % 3) as f64, 1.0]).collect();
-        let f64_factor = CholeskyFactor::<f64>::new(n, &lower, SimdLevel::detect()).unwrap();
+        let f64_factor = CholeskyFactor::<f64>::new(n, &lower, SimdLevel::detect(), FactorStorage::Full).unwrap();
         assert!(residual(n, &lower, &solve(&f64_factor, &b), &b) < 1e-12);
-        let f32_factor = CholeskyFactor::<f32>::new(n, &lower, SimdLevel::detect()).unwrap();
+        let f32_factor = CholeskyFactor::<f32>::new(n, &lower, SimdLevel::detect(), FactorStorage::Full).unwrap();
         // Cholesky's backward error bound, n·ε of the precision the factor is stored in.
         let r32 = residual(n, &lower, &solve(&f32_factor, &b), &b);
         assert!(r32 < n as f64 * f32::EPSILON as f64, "f32 residual {r32:e}");
         // Every instruction-set level gives the same bits.
         let levels: Vec<Vec<[f64; 3]>> = SimdLevel::available()
             .into_iter()
-            .map(|level| solve(&CholeskyFactor::<f32>::new(n, &lower, level).unwrap(), &b))
+            .map(|level| solve(&CholeskyFactor::<f32>::new(n, &lower, level, FactorStorage::Full).unwrap(), &b))
             .collect();
         assert!(levels.windows(2).all(|w| w[0] == w[1]));
     }
@@ -825,7 +938,8 @@ mod tests {
             (0..n).map(|r| (r / nz % ny) as f64).collect(),
             (0..n).map(|r| (r % nz) as f64).collect(),
         ];
-        let split = CholeskyFactor::<f64>::new_bisected(n, &lower, &keys, SimdLevel::detect()).unwrap();
+        let split =
+            CholeskyFactor::<f64>::new_bisected(n, &lower, &keys, SimdLevel::detect(), FactorStorage::Full).unwrap();
         assert!(split.is_split());
         assert_eq!(split.rhs_len() - n, ny * nz, "one grid plane separates");
         let two = WorkerPool::new(2, false);
@@ -835,7 +949,8 @@ mod tests {
         // a second solve (the separator's copy is cleared each time).
         assert_eq!(solve(&split, &b), x2);
         assert_eq!(solve_on(&split, &b, &two), x2);
-        let f32_split = CholeskyFactor::<f32>::new_bisected(n, &lower, &keys, SimdLevel::detect()).unwrap();
+        let f32_split =
+            CholeskyFactor::<f32>::new_bisected(n, &lower, &keys, SimdLevel::detect(), FactorStorage::Full).unwrap();
         let r32 = residual(n, &lower, &solve_on(&f32_split, &b, &two), &b);
         assert!(r32 < n as f64 * f32::EPSILON as f64, "f32 residual {r32:e}");
         // A dense matrix does not split (its separator would be half the rows): one thread.
@@ -843,10 +958,15 @@ mod tests {
         let dense: Vec<(u32, u32, f64)> =
             (0..m as u32).flat_map(|r| (0..=r).map(move |c| (r, c, if r == c { 10.0 } else { -1.0 }))).collect();
         let order = vec![(0..m).map(|i| i as f64).collect()];
-        assert!(!CholeskyFactor::<f64>::new_bisected(m, &dense, &order, SimdLevel::Baseline).unwrap().is_split());
+        assert!(
+            !CholeskyFactor::<f64>::new_bisected(m, &dense, &order, SimdLevel::Baseline, FactorStorage::Full)
+                .unwrap()
+                .is_split()
+        );
         // A diagonal one splits with an empty separator (column-by-column factor).
         let diagonal: Vec<(u32, u32, f64)> = (0..m as u32).map(|i| (i, i, 2.0)).collect();
-        let f = CholeskyFactor::<f64>::new_bisected(m, &diagonal, &order, SimdLevel::Baseline).unwrap();
+        let f = CholeskyFactor::<f64>::new_bisected(m, &diagonal, &order, SimdLevel::Baseline, FactorStorage::Full)
+            .unwrap();
         assert!(f.is_split() && f.rhs_len() == m);
         let ones = vec![[2.0, 4.0, -2.0]; m];
         for (got, want) in solve_on(&f, &ones, &two).iter().flatten().zip([1.0, 2.0, -1.0].iter().cycle()) {
@@ -857,7 +977,7 @@ mod tests {
     #[test]
     fn factor_of_a_diagonal_matrix_divides_works() {
         let lower = vec![(0, 0, 2.0), (1, 1, 4.0), (2, 2, 8.0)];
-        let f = CholeskyFactor::<f64>::new(3, &lower, SimdLevel::Baseline).unwrap();
+        let f = CholeskyFactor::<f64>::new(3, &lower, SimdLevel::Baseline, FactorStorage::Full).unwrap();
         let x = solve(&f, &[[2.0, 4.0, 6.0], [4.0, 8.0, 12.0], [8.0, 8.0, 8.0]]);
         let expected = [[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [1.0, 1.0, 1.0]];
         for (got, want) in x.iter().flatten().zip(expected.iter().flatten()) {
@@ -866,23 +986,55 @@ mod tests {
     }
 
     #[test]
+    fn half_storage_solves_a_unit_diagonal_matrix_to_binary16_precision_works() {
+        let (n, lower) = grid_matrix(9, 7, 5);
+        // Scaled to a unit diagonal, as `FactoredPreconditioner` scales its matrix.
+        let mut diag = vec![0.0; n];
+        lower.iter().filter(|e| e.0 == e.1).for_each(|&(r, _, v)| diag[r as usize] += v);
+        let scaled: Vec<(u32, u32, f64)> =
+            lower.iter().map(|&(r, c, v)| (r, c, v / (diag[r as usize] * diag[c as usize]).sqrt())).collect();
+        let b: Vec<[f64; 3]> = (0..n).map(|i| [(i % 7) as f64 - 3.0, (i % 3) as f64, 1.0]).collect();
+        let half = CholeskyFactor::<f32>::new(n, &scaled, SimdLevel::detect(), FactorStorage::Half).unwrap();
+        // Each coefficient rounded to 11 significant bits in place of 24: the residual grows
+        // with the unit round-off, 2^13 times f32's, within the spread of how the rounding
+        // errors add up.
+        let r16 = residual(n, &scaled, &solve(&half, &b), &b);
+        let full = CholeskyFactor::<f32>::new(n, &scaled, SimdLevel::detect(), FactorStorage::Full).unwrap();
+        let r32 = residual(n, &scaled, &solve(&full, &b), &b);
+        let growth = r16 / r32;
+        assert!((512.0..32768.0).contains(&growth), "binary16 residual {r16:e}, f32 {r32:e}");
+        // Every instruction-set level widens binary16 exactly: the same bits.
+        let levels: Vec<Vec<[f64; 3]>> = SimdLevel::available()
+            .into_iter()
+            .map(|level| solve(&CholeskyFactor::<f32>::new(n, &scaled, level, FactorStorage::Half).unwrap(), &b))
+            .collect();
+        assert!(levels.windows(2).all(|w| w[0] == w[1]));
+        // An entry beyond binary16's range is refused, not stored as infinity: a diagonal of
+        // 1e-10 has a factor inverse of 1e5.
+        assert_eq!(
+            CholeskyFactor::<f32>::new(1, &[(0, 0, 1e-10)], SimdLevel::Baseline, FactorStorage::Half).unwrap_err(),
+            FactorBuildError::BeyondStorage
+        );
+    }
+
+    #[test]
     fn factor_refuses_indefinite_and_bad_entries_fails() {
         let indefinite = vec![(0, 0, 1.0), (1, 0, 2.0), (1, 1, 1.0)];
         assert_eq!(
-            CholeskyFactor::<f64>::new(2, &indefinite, SimdLevel::Baseline).unwrap_err(),
+            CholeskyFactor::<f64>::new(2, &indefinite, SimdLevel::Baseline, FactorStorage::Full).unwrap_err(),
             FactorBuildError::NotPositiveDefinite
         );
         assert!(matches!(
-            CholeskyFactor::<f64>::new(2, &[(2, 0, 1.0)], SimdLevel::Baseline),
+            CholeskyFactor::<f64>::new(2, &[(2, 0, 1.0)], SimdLevel::Baseline, FactorStorage::Full),
             Err(FactorBuildError::BadEntry { row: 2, col: 0 })
         ));
         assert!(matches!(
-            CholeskyFactor::<f64>::new(2, &[(0, 0, f64::NAN)], SimdLevel::Baseline),
+            CholeskyFactor::<f64>::new(2, &[(0, 0, f64::NAN)], SimdLevel::Baseline, FactorStorage::Full),
             Err(FactorBuildError::BadEntry { .. })
         ));
         let keys = vec![vec![0.0, 1.0]];
         assert!(matches!(
-            CholeskyFactor::<f64>::new_bisected(2, &[(2, 0, 1.0)], &keys, SimdLevel::Baseline),
+            CholeskyFactor::<f64>::new_bisected(2, &[(2, 0, 1.0)], &keys, SimdLevel::Baseline, FactorStorage::Full),
             Err(FactorBuildError::BadEntry { row: 2, col: 0 })
         ));
     }
