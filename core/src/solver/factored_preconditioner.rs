@@ -109,8 +109,8 @@ impl<T: Real> FactoredPreconditioner<T> {
                 diag[r as usize] += ck * hd.stiffness + cc * hd.damping;
             }
         }
-        // Scaled to a unit diagonal: every factor entry then lies within [-1, 1] and the
-        // inverses of its diagonal blocks near it, which binary16 storage needs.
+        // Scaled to a unit diagonal: the factor's entries then lie within [-1, 1], as binary16
+        // storage needs (`CholeskyFactor` refuses an entry beyond its range).
         let inv_sqrt: Vec<f64> = diag.iter().map(|&d| 1.0 / d.sqrt()).collect();
         for (r, c, v) in lower.iter_mut() {
             *v *= inv_sqrt[*r as usize] * inv_sqrt[*c as usize];

@@ -3,9 +3,10 @@
 //!
 //! The fill-reducing ordering (approximate minimum degree) and the numeric supernodal
 //! Cholesky factorisation come from faer, in `f64`, once. The factor is then repacked for
-//! the real-time solve. Each supernode (a dense block of columns) becomes four matrix-vector
-//! products: the inverse of its triangular diagonal block and its rows below, each stored
-//! once for the forward sweep and once transposed for the backward sweep. Each product is
+//! the real-time solve, in the solve's precision or as binary16 ([`FactorStorage`]). Each
+//! supernode (a dense block of columns) becomes four matrix-vector products: the inverse of
+//! its triangular diagonal block and its rows below, each stored once for the forward sweep
+//! and once transposed for the backward sweep. Each product is
 //! packed in *tiles* of at most [`TILE`] outputs: a tile's coefficients lie input after
 //! input in memory, so the sweep streams the factor front to back while a tile's sums stay
 //! in registers, for the three right-hand sides at once. Triangular blocks store only their
@@ -51,7 +52,7 @@ pub enum FactorBuildError {
     #[error("the system matrix is not positive definite")]
     NotPositiveDefinite,
     /// A factor entry lies beyond the range of the storage asked for (binary16: 65,504).
-    #[error("a factor entry lies beyond the range of its binary16 storage")]
+    #[error("a factor entry lies beyond the range of its storage (binary16: 65,504)")]
     BeyondStorage,
     /// The sparse factorisation failed (out of memory or index overflow).
     #[error("sparse Cholesky factorisation failed: {0}")]
