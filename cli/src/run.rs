@@ -449,7 +449,7 @@ fn print_physics<T: Real>(
     );
     if let Some(m) = sim.multirate_status() {
         println!(
-            "multirate: {} bulk steps, mean {:.1} us, longest {:.1} us; the loop waited for the bulk {} time(s), longest {:.1} us; went on {} tick(s) past a late bulk step (at most {} in a row), the ring held; {} non-finite bulk state(s) refused",
+            "multirate: {} bulk steps, mean {:.1} us, longest {:.1} us; the loop waited for the bulk {} time(s), longest {:.1} us (the untimed warm-up's back-to-back ticks included); went on {} tick(s) past a late bulk step (at most {} in a row), the ring held; {} non-finite bulk state(s) refused",
             m.bulk_steps,
             m.bulk_step_total_ns as f64 / 1e3 / m.bulk_steps.saturating_sub(1).max(1) as f64,
             m.bulk_step_max_ns as f64 / 1e3,
