@@ -112,8 +112,9 @@ pub struct IntegrationParameters {
     /// [`MAX_FACTORED_ITERATIONS`](super::MAX_FACTORED_ITERATIONS) (64).
     pub factored_iterations: u32,
     /// How the prefactored matrix's coefficients are stored (`implicit_factored`, and
-    /// `implicit_euler` with `factored_preconditioner`). Default [`FactorStorage::Full`], in
-    /// the simulation's precision; [`FactorStorage::Half`] streams half the bytes of f32.
+    /// `implicit_euler` with `factored_preconditioner`). Default
+    /// [`FactorStorage::Full`](super::FactorStorage::Full), in the simulation's precision;
+    /// [`FactorStorage::Half`](super::FactorStorage::Half) streams half the bytes of f32.
     pub factor_storage: super::FactorStorage,
     /// Rayleigh mass-proportional damping α, 1/s (implicit Euler only). Default 0.
     pub rayleigh_alpha: f64,

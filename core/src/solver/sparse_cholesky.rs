@@ -68,8 +68,8 @@ pub enum FactorStorage {
     /// As IEEE binary16 (2 bytes each, 11 significant bits), widened to `T` in registers: half
     /// the bytes of `f32`, so a sweep that streams a factor larger than the caches takes about
     /// half the memory traffic. Meant for matrices scaled to a unit diagonal, whose factor
-    /// entries lie within binary16's range (up to 65,504); [`CholeskyFactor::new`] refuses a
-    /// factor with an entry beyond it.
+    /// entries lie within binary16's range (up to 65,504); a factor with an entry beyond it is
+    /// refused when the factor is built.
     Half,
 }
 
