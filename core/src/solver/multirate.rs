@@ -519,9 +519,7 @@ pub(crate) fn build_region<T: Real>(
     partition.check(settings).map_err(super::SimulationBuildError::Multirate)?;
     let region_model = partition.region_model(model);
     let layout = Layout::new(partition, Sphere { centre: settings.centre, radius: settings.radius });
-    let mut region_effects = effects.clone();
-    region_effects.loads.reserve(capacity.0);
-    region_effects.handles.reserve(capacity.1);
+    let mut region_effects = effects_with_room(effects, capacity);
     layout.map_effects(effects, &mut region_effects);
     let region = super::Simulation::new_single_rate_with(&region_model, params.clone(), region_effects, known)?;
     Ok(Relocation { layout, region })
@@ -539,10 +537,17 @@ pub(crate) fn build_bulk<T: Real>(
     capacity: (usize, usize),
     known: Option<super::critical_step::StabilityEstimate>,
 ) -> Result<super::Simulation<T>, super::SimulationBuildError> {
-    let mut bulk_effects = effects.clone();
-    bulk_effects.loads.reserve(capacity.0);
-    bulk_effects.handles.reserve(capacity.1);
+    let bulk_effects = effects_with_room(effects, capacity);
     super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), bulk_effects, known)
+}
+
+/// A copy of `effects` whose loads and handles lists have room for `capacity` (loads,
+/// handles) entries more, so copying a caller's lists into them later allocates nothing.
+fn effects_with_room(effects: &Effects, capacity: (usize, usize)) -> Effects {
+    let mut copy = effects.clone();
+    copy.loads.reserve(capacity.0);
+    copy.handles.reserve(capacity.1);
+    copy
 }
 
 /// The first frame epoch of the next multirate simulation built in this process; each takes
