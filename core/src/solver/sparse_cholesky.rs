@@ -103,11 +103,12 @@ impl<T: Real> Coefficients<T> {
         }
     }
 
-    /// True when every stored coefficient is finite (a binary16 beyond 65,504 is infinite).
-    fn all_finite(&self) -> bool {
+    /// True when every coefficient stored from `start` on is finite (a binary16 beyond
+    /// 65,504 is infinite).
+    fn all_finite_from(&self, start: usize) -> bool {
         match self {
-            Self::Full(v) => v.iter().all(|x| x.is_finite()),
-            Self::Half(v) => v.iter().all(|&h| h & 0x7c00 != 0x7c00),
+            Self::Full(v) => v[start..].iter().all(|x| x.is_finite()),
+            Self::Half(v) => v[start..].iter().all(|&h| h & 0x7c00 != 0x7c00),
         }
     }
 }
@@ -280,9 +281,6 @@ impl<T: Real> CholeskyFactor<T> {
         let place = |first: usize, _width: usize, rows: &[usize]| Some((first, rows.to_vec()));
         pack_factor(&symbolic, &l_values, &mut packer, place)?;
         let Packer { supernodes, pattern, values, longest } = packer;
-        if !values.all_finite() {
-            return Err(FactorBuildError::BeyondStorage);
-        }
         Ok(Self { len: n, position, supernodes, pattern, values, longest, simd: simd.clamp_to_cpu(), split: None })
     }
 
@@ -359,9 +357,6 @@ impl<T: Real> CholeskyFactor<T> {
         let a_end = classes.iter().filter(|&&c| c == 0).count();
         let b_end = a_end + classes.iter().filter(|&&c| c == 1).count();
         let Packer { supernodes, pattern, values, longest } = packer;
-        if !values.all_finite() {
-            return Err(FactorBuildError::BeyondStorage);
-        }
         Ok(Self {
             len: n + ns,
             position,
@@ -818,10 +813,14 @@ impl<T: Real> Packer<T> {
             return Err(FactorBuildError::NotPositiveDefinite);
         }
         let values = &mut self.values;
+        let start = values.len();
         let inverse = Packed::pack::<T>(values, width, width, Shape::Lower, |i, j| inv[j * width + i]);
         let below = Packed::pack::<T>(values, rows, width, Shape::Full, |r, j| l[(width + r) * width + j]);
         let below_t = Packed::pack::<T>(values, width, rows, Shape::Full, |j, r| l[(width + r) * width + j]);
         let inverse_t = Packed::pack::<T>(values, width, width, Shape::Upper, |j, i| inv[j * width + i]);
+        if !values.all_finite_from(start) {
+            return Err(FactorBuildError::BeyondStorage);
+        }
         self.supernodes.push(Supernode {
             first: first as u32,
             width: width as u32,
