@@ -8,7 +8,7 @@
 //! 3. [`publish`] writes straight into shared memory and never waits for a subscriber.
 //! 4. [`subscribe`] polls or blocks (with a timeout) and hands out views, not copies.
 //! 5. [`wire`] holds the only definition of the byte layout; [`topology`] converts the static
-//!    model to and from it; [`clock`] is the cross-process time base.
+//!    model to and from it; [`now_ns`] is the cross-process time base.
 //!
 //! Architecture invariant: this crate knows nothing of the physics; it moves positions,
 //! poses, forces and statistics.

@@ -1,7 +1,7 @@
 //! The wire layout: every type that crosses a process boundary, and nothing else.
 //!
 //! All types are `#[repr(C)]`, `Copy`, hold no pointers and derive
-//! [`ZeroCopySend`](iceoryx2::prelude::ZeroCopySend), so they live directly in iceoryx2 shared
+//! [`ZeroCopySend`], so they live directly in iceoryx2 shared
 //! memory. Each carries a stable `type_name` (`Lamina...V1`) so that two builds with the same
 //! layout connect, and a layout change (bump the `V`) refuses to connect instead of misreading
 //! bytes. Units are SI (m, s, N, N/m); times are nanoseconds of `CLOCK_MONOTONIC`

@@ -5,7 +5,7 @@
 //! count that overflows. This crate holds the two checks every reader makes before it trusts
 //! a size:
 //!
-//! - [`file`]: only regular files are read, refused by their metadata before a byte is read
+//! - [`file`](mod@file): only regular files are read, refused by their metadata before a byte is read
 //!   (a FIFO, `/dev/urandom` or `/dev/zero` is named as such), each format with its own size
 //!   cap ([`FileLimit`]);
 //! - [`memory`]: a size estimated in bytes is refused when it exceeds the memory available

@@ -18,19 +18,19 @@ use rand_xorshift::XorShiftRng;
 /// Settings of one annealing run (defaults in brackets).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AnnealSettings {
-    /// Seed of the random stream. [2008]
+    /// Seed of the random stream. Default 2008.
     pub seed: u64,
-    /// `T0` as a fraction of the starting point's ψ. [0.5]
+    /// `T0` as a fraction of the starting point's ψ. Default 0.5.
     pub initial_temperature: f64,
-    /// Geometric cooling factor per temperature level. [0.85]
+    /// Geometric cooling factor per temperature level. Default 0.85.
     pub cooling: f64,
-    /// Moves per temperature level. [12]
+    /// Moves per temperature level. Default 12.
     pub moves_per_temperature: usize,
-    /// Standard deviation of a move in log space at `T0`. [0.25]
+    /// Standard deviation of a move in log space at `T0`. Default 0.25.
     pub step: f64,
-    /// Stop when the best ψ is below this. [1e-5]
+    /// Stop when the best ψ is below this. Default 1e-5.
     pub psi_stop: f64,
-    /// Stop after this many evaluations of ψ. [1500]
+    /// Stop after this many evaluations of ψ. Default 1500.
     pub max_evaluations: usize,
 }
 

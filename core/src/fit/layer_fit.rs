@@ -13,19 +13,19 @@ use crate::generator::SpringMaterial;
 pub struct FitSettings {
     /// The annealing schedule.
     pub anneal: AnnealSettings,
-    /// Load steps of each tensile test. [24]
+    /// Load steps of each tensile test. Default 24.
     pub loads: usize,
     /// Annealing runs at most: a run that freezes above `psi_stop` is followed by another
     /// from the best point so far (reheated to `T0` of that point, next seed), unless that
-    /// reheated run lowered the best ψ by less than 1 %. [4]
+    /// reheated run lowered the best ψ by less than 1 %. Default 4.
     pub restarts: usize,
     /// Correction steps from the first guess and after each annealing run: every parameter
     /// scaled by (target / achieved)^γ of the value it mostly sets, γ = 0.8 halved whenever
-    /// a step does not improve ψ. [8]
+    /// a step does not improve ψ. Default 8.
     pub polish_steps: usize,
-    /// Slab nodes along the pull. [6]
+    /// Slab nodes along the pull. Default 6.
     pub slab_nx: usize,
-    /// Slab nodes across. [3]
+    /// Slab nodes across. Default 3.
     pub slab_nz: usize,
 }
 

@@ -7,9 +7,9 @@
 //!    and pulled by increasing loads, each solved to static equilibrium (Newton, residual
 //!    stop).
 //! 3. [`regression`]: the paper's bilinear regression (every point tried as turning point).
-//! 4. [`anneal`]: simulated annealing with a documented schedule and seed.
+//! 4. [`anneal`](mod@anneal): simulated annealing with a documented schedule and seed.
 //! 5. [`layer_fit`]: the objective ψ and one layer's fit, every evaluation's curve kept.
-//! 6. [`curve_error`]: the fitted layer against the tissue's own curve, point by point.
+//! 6. [`curve_error`](mod@curve_error): the fitted layer against the tissue's own curve, point by point.
 //! 7. [`scene_fit`]: a scene's three layers, on the geometry of the limb it generates.
 
 pub mod anneal;

@@ -111,7 +111,7 @@ impl Default for BlockSpec {
 
 impl BlockSpec {
     /// Rows of nodes including the bone row (saturating: an overflowing row count is
-    /// refused by [`check`](Self::check)).
+    /// refused by [`check_size`](Self::check_size)).
     pub fn rows(&self) -> usize {
         1usize.saturating_add(self.muscle_rows).saturating_add(self.fat_rows).saturating_add(self.skin_rows)
     }

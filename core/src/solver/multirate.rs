@@ -166,7 +166,7 @@ const RECENTRE_FRACTION: f64 = 0.25;
 const SHRINK_FRACTION: f64 = 0.9;
 
 /// Radius (m) of a region following a tool of radius `tool_radius` (m), at least `radius`:
-/// the tool's centre may stray [`RECENTRE_FRACTION`] of the region's radius from the
+/// the tool's centre may stray a quarter of the region's radius (`RECENTRE_FRACTION`) from the
 /// region's centre, so its contacts, within `tool_radius` of its centre, stay inside a
 /// region of radius `tool_radius / (1 - RECENTRE_FRACTION)` or more.
 ///

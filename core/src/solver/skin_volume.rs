@@ -41,7 +41,7 @@ pub struct SkinVolume {
 
 impl SkinVolume {
     /// The tetrahedra of `model`'s outer skin
-    /// ([`SKIN_SURFACE`](super::skin_contact::SKIN_SURFACE)); empty when the model has no such
+    /// (the surface named `skin_outer`); empty when the model has no such
     /// surface. Triangles with no bottom node, or whose tetrahedron is flat (volume under 10⁻⁶
     /// of its longest edge cubed), get none.
     pub fn of_model(model: &Model) -> Self {

@@ -76,7 +76,7 @@ impl LatticeSize {
     }
 }
 
-/// Counts of a lattice of `nx × ny × nz` nodes with the [`OFFSETS`] springs (the yardstick
+/// Counts of a lattice of `nx × ny × nz` nodes with the `OFFSETS` springs (the yardstick
 /// and the layered block), without overflow: nodes, springs by [`spring_count`]'s closed
 /// form, and `2·nx·nz` surface triangles at most.
 pub fn lattice_model_size(nx: u64, ny: u64, nz: u64) -> ModelSize {
