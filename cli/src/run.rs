@@ -369,6 +369,21 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
         );
     }
     println!("stages in the loop: {}", sim.effects().stage_names().join(", "));
+    if let Some(tool) = scene.tool {
+        let source = match tool.source {
+            lamina_core::scene::ToolSource::Scripted { .. } => "scripted",
+            lamina_core::scene::ToolSource::Haptics { .. } => "driven by the haptics process",
+        };
+        let per_area = tool.stiffness_per_area.map_or(String::new(), |k| {
+            let area = lamina_core::solver::largest_skin_node_area(model).unwrap_or(f64::NAN);
+            format!(" ({k:.3e} N/m per m² of skin times the largest skin node area, {:.2} mm²)", area * 1e6)
+        });
+        println!(
+            "tool: a sphere of radius {:.1} mm {source}, {:.1} N/m per node in contact{per_area}",
+            tool.radius * 1e3,
+            tool.stiffness
+        );
+    }
 }
 
 /// After a run with misses, the command that measures how many the machine itself causes: the

@@ -80,7 +80,12 @@ fn sections(text: &str) -> Vec<Section> {
 }
 
 fn is_required(row: &BTreeMap<String, String>) -> bool {
-    row["default"] == "required"
+    row["default"] == "required" || row["default"].starts_with("required unless ")
+}
+
+/// The key that may stand in for a required one (`required unless KEY`), if any.
+fn alternative(row: &BTreeMap<String, String>) -> Option<&str> {
+    row["default"].strip_prefix("required unless ")
 }
 
 /// A TOML value cell, or `None` for prose (`off`, `the period`, `-`).
@@ -110,8 +115,9 @@ fn scene_text(section: &Section, extra: &[String]) -> String {
         let (open, close) = if section.array { ("[[", "]]") } else { ("[", "]") };
         text.push_str(&format!("{open}{}{close}\n", section.path));
     }
+    let given = |key: &str| extra.iter().any(|e| e.starts_with(&format!("{key} = ")));
     for (key, row) in &section.rows {
-        if is_required(row) && !extra.iter().any(|e| e.starts_with(&format!("{key} = "))) {
+        if is_required(row) && !given(key) && !alternative(row).is_some_and(given) {
             text.push_str(&format!("{key} = {}\n", row["example"]));
         }
     }

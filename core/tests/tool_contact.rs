@@ -78,6 +78,63 @@ fn sphere_on_held_flat_skin_matches_the_pressure_integral_works() {
     }
 }
 
+/// A tool given a stiffness per area (`stiffness_per_area` in the scene) presses two grids of
+/// the same flat skin, 5 mm and 10 mm, with the same force: the closed form `π κ h δ²` with the
+/// scene's κ on both, where a per-node stiffness gives a pressure 4 times larger on the finer
+/// grid. The scenes read the skin from model files, as a scene of segmented anatomy would.
+#[test]
+fn tool_stiffness_per_area_feels_the_same_on_any_grid_works() {
+    let dir = std::env::temp_dir().join(format!("lamina_tool_per_area_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (r, depth, kappa): (f64, f64, f64) = (0.012, 0.004, 1.2e7);
+    let h = r - depth;
+    let expected = std::f64::consts::PI * kappa * h * depth * depth;
+    let mut forces = Vec::new();
+    for (n, spacing) in [(41u32, 0.005), (21u32, 0.01)] {
+        let model_path = dir.join(format!("flat_{n}.xml"));
+        lamina_core::io::write_model(&flat_skin(n, spacing), &model_path).unwrap();
+        let centre = 0.5 * f64::from(n - 1) * spacing;
+        let text = format!(
+            "[model]\nkind = \"file\"\npath = \"flat_{n}.xml\"\n[effects]\nbone = true\n[effects.tool]\nsource = \"scripted\"\nradius = {r}\nstiffness_per_area = {kappa:e}\nstart = [{centre}, {h}, {centre}]\n"
+        );
+        let scene_path = dir.join(format!("flat_{n}.toml"));
+        std::fs::write(&scene_path, text).unwrap();
+        let scene = Scene::load(&scene_path).unwrap();
+        // An inner node of the uniform grid carries a third of six half-squares: spacing².
+        let per_node = scene.tool.unwrap().stiffness;
+        assert!((per_node - kappa * spacing * spacing).abs() < 1e-9 * per_node, "{spacing} m: {per_node} N/m");
+        let model = scene.build_model().unwrap();
+        let mut sim = Simulation::<f64>::new(&model, scene.solver.clone(), scene.effects.clone()).unwrap();
+        sim.step();
+        let force = sim.tool_feedback().force[1];
+        eprintln!("grid {spacing} m: {per_node:.1} N/m per node, force {force:.5} N, closed form {expected:.5} N");
+        assert!((force - expected).abs() < 0.05 * expected, "grid {spacing} m: {force} N against {expected} N");
+        forces.push(force);
+    }
+    assert!((forces[0] - forces[1]).abs() < 0.05 * forces[0], "{forces:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A scene whose model has no outer skin cannot spread a stiffness per area over it: refused,
+/// naming the file, the line and the key.
+#[test]
+fn tool_stiffness_per_area_without_a_skin_fails() {
+    let dir = std::env::temp_dir().join(format!("lamina_tool_per_area_no_skin_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut model = flat_skin(3, 0.01);
+    model.surfaces.clear();
+    lamina_core::io::write_model(&model, dir.join("bare.xml")).unwrap();
+    let scene_path = dir.join("bare.toml");
+    std::fs::write(
+        &scene_path,
+        "[model]\nkind = \"file\"\npath = \"bare.xml\"\n[effects.tool]\nsource = \"scripted\"\nradius = 0.01\nstiffness_per_area = 1e7\nstart = [0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let error = Scene::load(&scene_path).expect_err("no skin to spread the stiffness over").to_string();
+    assert!(error.contains("bare.toml:7:") && error.contains("effects.tool.stiffness_per_area"), "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn tool_sliding_along_the_default_limb_always_meets_the_skin_works() {
     // The tool at a constant 8 mm below the skin top, moved along the limb from one row of

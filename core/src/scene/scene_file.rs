@@ -206,7 +206,7 @@ impl Scene {
         let solver = solver_parameters(raw.solver, rate_hz, tool_centre).map_err(located)?;
         let realtime = realtime_settings(raw.realtime).map_err(located)?;
         let visual = visual_section(raw.visual, base).map_err(located)?;
-        Ok(Self {
+        let mut scene = Self {
             name: raw.name.unwrap_or_else(|| "unnamed".into()),
             rate_hz,
             precision,
@@ -217,7 +217,31 @@ impl Scene {
             tool,
             visual,
             path: path.map(Path::to_path_buf),
-        })
+        };
+        if let Some(per_area) = scene.tool.and_then(|t| t.stiffness_per_area) {
+            // The per-node stiffness needs the model's skin: built here, only for this key.
+            let area = crate::solver::largest_skin_node_area(&scene.build_model()?);
+            let field = "effects.tool.stiffness_per_area";
+            let stiffness = match area {
+                None => Err(FieldError::new(
+                    field,
+                    "needs a model with an outer skin surface (\"skin_outer\") of some area",
+                )),
+                Some(a) if !((per_area * a).is_finite() && per_area * a > 0.0) => Err(FieldError::new(
+                    field,
+                    format!("times the largest skin node area ({a:.3e} m²) is not a finite, positive stiffness"),
+                )),
+                Some(a) => Ok(per_area * a),
+            }
+            .map_err(located)?;
+            if let Some(t) = scene.tool.as_mut() {
+                t.stiffness = stiffness;
+            }
+            if let Some(t) = scene.effects.tool.as_mut() {
+                t.stiffness = stiffness;
+            }
+        }
+        Ok(scene)
     }
 
     /// Builds (or reads) the scene's model.

@@ -9,7 +9,8 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub(super) struct RawTool {
     radius: f64,
-    stiffness: f64,
+    stiffness: Option<f64>,
+    stiffness_per_area: Option<f64>,
     source: String,
     start: Option<[f64; 3]>,
     velocity: Option<[f64; 3]>,
@@ -20,9 +21,27 @@ pub(super) struct RawTool {
     force_scale: Option<f64>,
 }
 
-/// The `[effects.tool]` table.
+/// The `[effects.tool]` table. Given `stiffness_per_area`, the per-node `stiffness` is left 0
+/// for the scene's reader to set once it has the model ([`ToolSettings::stiffness_per_area`]).
 pub(super) fn tool_settings(t: RawTool) -> Result<ToolSettings, FieldError> {
-    if !(t.radius.is_finite() && t.radius > 0.0 && t.stiffness.is_finite() && t.stiffness > 0.0) {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    let (stiffness, stiffness_per_area) = match (t.stiffness, t.stiffness_per_area) {
+        (Some(k), None) => (k, None),
+        (None, Some(kappa)) => (0.0, Some(kappa)),
+        (Some(_), Some(_)) => {
+            return Err(FieldError::new(
+                "effects.tool.stiffness_per_area",
+                "give stiffness or stiffness_per_area, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(FieldError::new("effects.tool.stiffness", "required (or stiffness_per_area)"));
+        }
+    };
+    if !(positive(t.radius)
+        && stiffness_per_area.is_none_or(positive)
+        && (stiffness_per_area.is_some() || positive(stiffness)))
+    {
         return Err(FieldError::new("effects.tool", "radius and stiffness must be finite and positive"));
     }
     let source = match t.source.as_str() {
@@ -30,7 +49,7 @@ pub(super) fn tool_settings(t: RawTool) -> Result<ToolSettings, FieldError> {
         "haptics" => haptics(&t)?,
         _ => return Err(FieldError::new("effects.tool.source", "\"scripted\" or \"haptics\"")),
     };
-    Ok(ToolSettings { radius: t.radius, stiffness: t.stiffness, source })
+    Ok(ToolSettings { radius: t.radius, stiffness, stiffness_per_area, source })
 }
 
 fn scripted(t: &RawTool) -> Result<ToolSource, FieldError> {
@@ -107,6 +126,19 @@ mod tests {
             (
                 "source = \"haptics\"\nradius = 0.01\nstiffness = 200.0\ndevice_origin = [0.0, 0.0, 0.0]\nforce_scale = inf\n",
                 "effects.tool.force_scale",
+            ),
+            ("source = \"scripted\"\nradius = 0.01\nstart = [0.0, 0.0, 0.0]\n", "effects.tool.stiffness"),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness = 200.0\nstiffness_per_area = 9e6\nstart = [0.0, 0.0, 0.0]\n",
+                "effects.tool.stiffness_per_area",
+            ),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness_per_area = -9e6\nstart = [0.0, 0.0, 0.0]\n",
+                "effects.tool",
+            ),
+            (
+                "source = \"scripted\"\nradius = 0.01\nstiffness_per_area = nan\nstart = [0.0, 0.0, 0.0]\n",
+                "effects.tool",
             ),
         ];
         for (body, field) in cases {

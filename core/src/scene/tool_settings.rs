@@ -43,8 +43,14 @@ pub struct ToolSettings {
     /// Sphere radius, m (a haptics command may carry its own, down to the source's
     /// `min_radius`).
     pub radius: f64,
-    /// Penalty stiffness per node in contact, N/m.
+    /// Penalty stiffness per node in contact, N/m: the scene's `stiffness`, or its
+    /// `stiffness_per_area` times the model's largest skin node area.
     pub stiffness: f64,
+    /// The stiffness per area the scene gave instead of `stiffness`, N/m per m² of skin in
+    /// contact (Pa/m): the contact feels the same on any grid of the same skin
+    /// ([`largest_skin_node_area`](crate::solver::largest_skin_node_area)). `None` when the
+    /// scene gave `stiffness`.
+    pub stiffness_per_area: Option<f64>,
     /// Script or haptics.
     pub source: ToolSource,
 }

@@ -49,6 +49,7 @@ pub use multirate::{
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
 pub use simulation::{GuardTotals, Simulation, SimulationBuildError};
+pub use skin_contact::largest_skin_node_area;
 pub use skin_volume::SkinVolume;
 pub use sparse_cholesky::FactorStorage;
 pub use spring_kernels::MIN_SPRING_LENGTH;

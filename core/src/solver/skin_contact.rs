@@ -57,28 +57,61 @@ pub(super) fn outer_skin(model: &Model) -> Option<(&Surface, Vec<bool>)> {
     Some((skin, on_skin))
 }
 
+/// The largest share of `model`'s outer skin ([`SKIN_SURFACE`]) any node carries, m²: a third
+/// of the area of each skin triangle it is a corner of. The tool's per-node stiffness over this
+/// area is the shell's penalty pressure per metre of penetration, so a tool given a stiffness
+/// per area (N/m per m² of skin) feels the same on any grid with this per-node stiffness.
+/// `None` when the model has no outer skin or it has no area.
+///
+/// # Examples
+///
+/// ```
+/// use lamina_core::scene::Scene;
+/// use lamina_core::solver::largest_skin_node_area;
+///
+/// let model = Scene::builtin_default().build_model()?;
+/// let area = largest_skin_node_area(&model).expect("the default limb has an outer skin");
+/// // The default limb's skin cells are about 40 mm along and 16 mm around.
+/// assert!(area > 4e-4 && area < 8e-4, "{area} m²");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn largest_skin_node_area(model: &Model) -> Option<f64> {
+    let (skin, _) = outer_skin(model)?;
+    let largest = node_shares(model, skin).0.into_iter().fold(0.0, f64::max);
+    (largest > 0.0 && largest.is_finite()).then_some(largest)
+}
+
+/// A skin triangle's nodes, its area (m²) and its longest edge (m).
+type TriangleArea = ([u32; 3], f64, f64);
+
+/// Each node's share of `skin`'s area (a third of each adjacent triangle's), m², and each
+/// triangle naming nodes in range with its area and longest edge.
+fn node_shares(model: &Model, skin: &Surface) -> (Vec<f64>, Vec<TriangleArea>) {
+    let n = model.nodes.len();
+    let p = &model.nodes.position;
+    let valid = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
+    let mut share = vec![0.0_f64; n];
+    let mut areas = Vec::with_capacity(skin.triangles.len());
+    for t in skin.triangles.iter().filter(|t| valid(t)) {
+        let [a, b, c] = t.map(|i| p[i as usize]);
+        let area = 0.5 * norm(cross(sub(b, a), sub(c, a)));
+        for &i in t {
+            share[i as usize] += area / 3.0;
+        }
+        areas.push((*t, area, longest_edge(a, b, c)));
+    }
+    (share, areas)
+}
+
 impl SkinShell {
     /// The shell of `model`'s [`SKIN_SURFACE`] for a sphere of `radius` m (samples at most
     /// `radius / 2` apart); empty (node contact only) when the model has no such surface or it
     /// has no area. A sample's stiffness is `weight ×` the tool's per-node stiffness.
     pub fn of_model(model: &Model, radius: f64) -> Self {
-        let n = model.nodes.len();
         let Some((skin, on_shell)) = outer_skin(model) else {
             return Self::default();
         };
-        let p = &model.nodes.position;
-        let valid = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
-        // A node's share of the skin: a third of each adjacent triangle's area.
-        let mut share = vec![0.0_f64; n];
-        let mut areas = Vec::with_capacity(skin.triangles.len());
-        for t in skin.triangles.iter().filter(|t| valid(t)) {
-            let [a, b, c] = t.map(|i| p[i as usize]);
-            let area = 0.5 * norm(cross(sub(b, a), sub(c, a)));
-            for &i in t {
-                share[i as usize] += area / 3.0;
-            }
-            areas.push((*t, area, longest_edge(a, b, c)));
-        }
+        let (share, areas) = node_shares(model, skin);
         let largest_share = share.iter().copied().fold(0.0, f64::max);
         if !(largest_share > 0.0 && largest_share.is_finite()) {
             return Self::default();

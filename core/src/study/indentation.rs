@@ -105,6 +105,7 @@ pub fn indentation(
     let settings = scene.tool.unwrap_or(ToolSettings {
         radius: 0.012,
         stiffness: 300.0,
+        stiffness_per_area: None,
         source: ToolSource::Haptics {
             device_origin: [0.0; 3],
             timeout_s: 0.1,
