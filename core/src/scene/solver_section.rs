@@ -105,11 +105,8 @@ pub(super) fn solver_parameters(
         solver.factored_preconditioner = on;
     }
     if let Some(storage) = raw.factor_storage {
-        solver.factor_storage = match storage.as_str() {
-            "full" => FactorStorage::Full,
-            "f16" => FactorStorage::Half,
-            _ => return Err(FieldError::new("solver.factor_storage", "\"full\" or \"f16\"")),
-        };
+        solver.factor_storage = FactorStorage::parse(&storage)
+            .ok_or_else(|| FieldError::new("solver.factor_storage", "\"full\" or \"f16\""))?;
     }
     if let Some(m) = raw.cg_max_iterations {
         if m == 0 {

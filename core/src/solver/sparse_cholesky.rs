@@ -73,6 +73,34 @@ pub enum FactorStorage {
     Half,
 }
 
+impl FactorStorage {
+    /// Both storages.
+    pub const ALL: [FactorStorage; 2] = [FactorStorage::Full, FactorStorage::Half];
+
+    /// The scene file's name for it (`[solver] factor_storage`): `"full"` or `"f16"`.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use lamina_core::solver::FactorStorage;
+    ///
+    /// assert_eq!(FactorStorage::parse("f16"), Some(FactorStorage::Half));
+    /// assert_eq!(FactorStorage::Half.name(), "f16");
+    /// assert_eq!(FactorStorage::parse("f8"), None);
+    /// ```
+    pub fn name(self) -> &'static str {
+        match self {
+            FactorStorage::Full => "full",
+            FactorStorage::Half => "f16",
+        }
+    }
+
+    /// Parses [`FactorStorage::name`]'s output.
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
 /// The packed coefficients, in the precision [`FactorStorage`] asks.
 #[derive(Clone, Debug)]
 enum Coefficients<T> {
