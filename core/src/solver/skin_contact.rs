@@ -57,10 +57,11 @@ pub(super) fn outer_skin(model: &Model) -> Option<(&Surface, Vec<bool>)> {
     Some((skin, on_skin))
 }
 
-/// The largest share of `model`'s outer skin ([`SKIN_SURFACE`]) any node carries, m²: a third
-/// of the area of each skin triangle it is a corner of. The tool's per-node stiffness over this
-/// area is the shell's penalty pressure per metre of penetration, so a tool given a stiffness
-/// per area (N/m per m² of skin) feels the same on any grid with this per-node stiffness.
+/// The largest share of `model`'s outer skin (the surface named `skin_outer`) any node
+/// carries, m²: a third of the area of each skin triangle it is a corner of. The tool's
+/// per-node stiffness over this area is the shell's penalty pressure per metre of penetration,
+/// so a tool given a stiffness per area (N/m per m² of skin) feels the same on any grid with
+/// this per-node stiffness.
 /// `None` when the model has no outer skin or it has no area.
 ///
 /// # Examples
