@@ -15,7 +15,7 @@
 use rand_core::{Rng, SeedableRng};
 use rand_xorshift::XorShiftRng;
 
-/// Settings of one annealing run (defaults in brackets).
+/// Settings of one annealing run, with their defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AnnealSettings {
     /// Seed of the random stream. Default 2008.

@@ -8,7 +8,7 @@ use super::targets::{TargetLaw, TissueTargets};
 use super::tensile::{Specimen, TensileCurve, tensile_test};
 use crate::generator::SpringMaterial;
 
-/// How a layer is fitted (defaults in brackets).
+/// How a layer is fitted, with the defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FitSettings {
     /// The annealing schedule.
