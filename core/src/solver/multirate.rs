@@ -658,7 +658,9 @@ pub struct MultirateStatus {
     /// At the last exchange, the largest distance between where the bulk and where the
     /// region put a node both step (the overlap, near the region's edge), m. Hundredths of a
     /// millimetre at rest, up to about 2 mm with the tool sliding at a large ratio, 3 mm and
-    /// more where the coupling oscillates (docs/accuracy-and-stability.md).
+    /// more where the coupling oscillates, and 12-15 mm where the bulk's own copy of the
+    /// overlap lags a deep press on the 160x40 limb while the region's stays within 0.3 mm of
+    /// single-rate (docs/accuracy-and-stability.md).
     pub coupling_gap_m: f64,
     /// The largest [`coupling_gap_m`](Self::coupling_gap_m) so far, m.
     pub coupling_gap_max_m: f64,
