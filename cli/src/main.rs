@@ -272,7 +272,8 @@ enum BenchCommand {
     /// other scenes, every solver on 1 and 2 threads side by side (and multirate stepping about
     /// the tool on 2, its ticks paced at 1 kHz); a table, CSV and log-log PNG.
     Capacity {
-        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells).
+        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells); "" for
+        /// scenes alone.
         #[arg(long, default_value = "24x6,39x10,48x12,96x24,160x40")]
         grids: String,
         /// Comma-separated scene files measured as well (their own model and effects).
@@ -428,7 +429,11 @@ fn run(command: Command) -> Result<(), String> {
                 },
         } => {
             let opts = bench_capacity::CapacityOptions {
-                grids: parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?,
+                grids: if grids.trim().is_empty() {
+                    Vec::new()
+                } else {
+                    parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?
+                },
                 scenes: scenes.split(',').filter(|p| !p.trim().is_empty()).map(|p| PathBuf::from(p.trim())).collect(),
                 integrators: parse_list(&solvers, "solver", IntegratorKind::parse)?,
                 threads: parse_list(&threads, "thread count", |p| {
@@ -453,6 +458,9 @@ fn run(command: Command) -> Result<(), String> {
                 out,
                 fifo_priority,
             };
+            if opts.grids.is_empty() && opts.scenes.is_empty() {
+                return Err("--grids and --scenes are both empty: nothing to measure".into());
+            }
             bench_capacity::bench(&opts)
         }
         Command::Bench {
