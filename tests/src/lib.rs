@@ -1,5 +1,5 @@
-//! Helpers for the workspace-level tests: finding the workspace's binaries, unique iceoryx2
-//! service prefixes, and a watchdog for child processes.
+//! Helpers for the workspace-level tests: finding and running the workspace's binaries, unique
+//! iceoryx2 service prefixes, and a watchdog for child processes.
 
 use std::path::PathBuf;
 use std::process::{Child, Command};
@@ -32,6 +32,14 @@ pub fn workspace_bin(name: &str) -> PathBuf {
     }
     assert!(path.exists(), "{} not found", path.display());
     path
+}
+
+/// Runs the workspace's `lamina` with `args` to the end: whether it succeeded, and its
+/// stdout followed by its stderr.
+pub fn run_lamina(args: &[&str]) -> (bool, String) {
+    let out = Command::new(workspace_bin("lamina")).args(args).output().expect("run lamina");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
 }
 
 /// A service prefix no other test or run uses.

@@ -2,14 +2,10 @@
 //! options refused by name before anything is measured (a grid whose model does not build is
 //! reported and skipped instead, like a scene that does not load).
 
-use lamina_tests::workspace_bin;
-use std::process::Command;
+use lamina_tests::run_lamina;
 
 fn capacity(args: &[&str]) -> (bool, String) {
-    let out =
-        Command::new(workspace_bin("lamina")).args(["bench", "capacity"]).args(args).output().expect("run lamina");
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), text)
+    run_lamina(&[&["bench", "capacity"], args].concat())
 }
 
 #[test]

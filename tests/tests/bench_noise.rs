@@ -1,13 +1,10 @@
 //! `lamina bench noise`: the machine's own misses, measured by the loop of `lamina run` with
 //! synthetic work. Checks the table it prints and that bad options are refused by name.
 
-use lamina_tests::workspace_bin;
-use std::process::Command;
+use lamina_tests::run_lamina;
 
 fn noise(args: &[&str]) -> (bool, String) {
-    let out = Command::new(workspace_bin("lamina")).args(["bench", "noise"]).args(args).output().expect("run lamina");
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), text)
+    run_lamina(&[&["bench", "noise"], args].concat())
 }
 
 #[test]
