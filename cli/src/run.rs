@@ -375,8 +375,9 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
             lamina_core::scene::ToolSource::Scripted { .. } => "scripted",
             lamina_core::scene::ToolSource::Haptics { .. } => "driven by the haptics process",
         };
+        // The scene set the per-node stiffness to the per-area one times this area.
         let per_area = tool.stiffness_per_area.map_or(String::new(), |k| {
-            let area = lamina_core::solver::largest_skin_node_area(model).unwrap_or(f64::NAN);
+            let area = tool.stiffness / k;
             format!(" ({k:.3e} N/m per m² of skin times the largest skin node area, {:.2} mm²)", area * 1e6)
         });
         println!(

@@ -222,16 +222,16 @@ impl Scene {
             // The per-node stiffness needs the model's skin: built here, only for this key.
             let area = crate::solver::largest_skin_node_area(&scene.build_model()?);
             let field = "effects.tool.stiffness_per_area";
-            let stiffness = match area {
+            let stiffness = match area.map(|a| (a, per_area * a)) {
                 None => Err(FieldError::new(
                     field,
                     "needs a model with an outer skin surface (\"skin_outer\") of some area",
                 )),
-                Some(a) if !((per_area * a).is_finite() && per_area * a > 0.0) => Err(FieldError::new(
+                Some((a, k)) if !(k.is_finite() && k > 0.0) => Err(FieldError::new(
                     field,
                     format!("times the largest skin node area ({a:.3e} m²) is not a finite, positive stiffness"),
                 )),
-                Some(a) => Ok(per_area * a),
+                Some((_, k)) => Ok(k),
             }
             .map_err(located)?;
             if let Some(t) = scene.tool.as_mut() {

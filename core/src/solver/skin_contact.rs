@@ -77,17 +77,15 @@ pub(super) fn outer_skin(model: &Model) -> Option<(&Surface, Vec<bool>)> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn largest_skin_node_area(model: &Model) -> Option<f64> {
-    let (skin, _) = outer_skin(model)?;
-    let largest = node_shares(model, skin).0.into_iter().fold(0.0, f64::max);
-    (largest > 0.0 && largest.is_finite()).then_some(largest)
+    skin_areas(model, outer_skin(model)?.0).0
 }
 
 /// A skin triangle's nodes, its area (m²) and its longest edge (m).
 type TriangleArea = ([u32; 3], f64, f64);
 
-/// Each node's share of `skin`'s area (a third of each adjacent triangle's), m², and each
-/// triangle naming nodes in range with its area and longest edge.
-fn node_shares(model: &Model, skin: &Surface) -> (Vec<f64>, Vec<TriangleArea>) {
+/// The largest node share of `skin`'s area (a third of each adjacent triangle's), m², when
+/// positive and finite, and each triangle naming nodes in range with its area and longest edge.
+fn skin_areas(model: &Model, skin: &Surface) -> (Option<f64>, Vec<TriangleArea>) {
     let n = model.nodes.len();
     let p = &model.nodes.position;
     let valid = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
@@ -101,7 +99,8 @@ fn node_shares(model: &Model, skin: &Surface) -> (Vec<f64>, Vec<TriangleArea>) {
         }
         areas.push((*t, area, longest_edge(a, b, c)));
     }
-    (share, areas)
+    let largest = share.into_iter().fold(0.0, f64::max);
+    ((largest > 0.0 && largest.is_finite()).then_some(largest), areas)
 }
 
 impl SkinShell {
@@ -112,11 +111,9 @@ impl SkinShell {
         let Some((skin, on_shell)) = outer_skin(model) else {
             return Self::default();
         };
-        let (share, areas) = node_shares(model, skin);
-        let largest_share = share.iter().copied().fold(0.0, f64::max);
-        if !(largest_share > 0.0 && largest_share.is_finite()) {
+        let (Some(largest_share), areas) = skin_areas(model, skin) else {
             return Self::default();
-        }
+        };
         // Penalty pressure per unit node stiffness: 1 / (largest node share), per m² of skin.
         let pressure = 1.0 / largest_share;
         let spacing = 0.5 * radius;
