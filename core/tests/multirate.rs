@@ -327,6 +327,51 @@ fn multirate_bulk_feels_handles_and_loads_changed_while_running_works() {
     assert!(d < 2e-4, "the limb is {d} m from the single-rate solver's");
 }
 
+/// A kick to the whole pressed limb (every free node lifted 2 mm at once) puts the region's
+/// copy of the overlap 2 mm from the bulk's; the coupling settles back by itself, to where the
+/// single-rate solver kicked the same way settles, its two halves agreeing again. (A bulk
+/// taking the region's overlap whenever they drift over 1 mm apart kept this kick swinging:
+/// docs/accuracy-and-stability.md.)
+#[test]
+fn multirate_coupling_settles_back_after_a_kick_works() {
+    let kicked = |settings: Option<MultirateSettings>| {
+        let (mut sim, origin) = default_scene_with_tool(IntegratorKind::ImplicitFactored, settings);
+        let mut gap_after_kick = 0.0f64;
+        for frame in 0..1500 {
+            let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
+            sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
+            if frame == 600 {
+                for i in 0..sim.state().x.len() {
+                    if sim.node_is_free(i) {
+                        sim.state_mut().x.y[i] += 0.002;
+                    }
+                }
+            }
+            sim.step();
+            if (600..700).contains(&frame) {
+                gap_after_kick = gap_after_kick.max(sim.multirate_status().map_or(0.0, |m| m.coupling_gap_m));
+            }
+        }
+        (sim, gap_after_kick)
+    };
+    let (single, _) = kicked(None);
+    let (multi, gap_after_kick) = kicked(multirate(0.05, 4));
+    let status = multi.multirate_status().expect("multirate on");
+    let d = max_difference(&multi, &single);
+    let (force, single_force) = (multi.tool_feedback().force[1], single.tool_feedback().force[1]);
+    eprintln!(
+        "kicked 2 mm: gap {gap_after_kick:.3e} m in the 0.1 s after, {:.3e} m at 1.5 s; positions within {d:.3e} m of single-rate; force {force:.5} N (single-rate {single_force:.5} N)",
+        status.coupling_gap_m
+    );
+    assert!(gap_after_kick > 1e-3, "the kick drew the halves apart: {gap_after_kick} m");
+    assert!(status.coupling_gap_m < 5e-5, "{status:?}");
+    assert!(d < 2e-4, "positions differ by up to {d:e} m from the single-rate solver");
+    assert!(
+        multi.tool_feedback().in_contact && (force - single_force).abs() < 0.01 * single_force,
+        "{force} N against {single_force} N"
+    );
+}
+
 #[test]
 fn multirate_results_do_not_depend_on_the_bulk_threads_timing_works() {
     // The region waits for the bulk's state at each exchange, so two runs give the same bits
