@@ -52,15 +52,28 @@ fn multirate(radius: f64, ratio: u32) -> Option<MultirateSettings> {
     })
 }
 
-/// Presses the tool 8 mm into the skin over 0.5 s and holds it to 2 s; returns the
-/// simulation and the vertical force on the tool, N.
-fn press(integrator: IntegratorKind, settings: Option<MultirateSettings>) -> (Simulation<f32>, f64) {
+/// Presses the tool of the default scene 8 mm into the skin over 0.5 s and holds it, for
+/// `frames` frames; `after_step` sees each frame's index and the simulation after it.
+fn press_for(
+    integrator: IntegratorKind,
+    settings: Option<MultirateSettings>,
+    frames: usize,
+    mut after_step: impl FnMut(usize, &mut Simulation<f32>),
+) -> Simulation<f32> {
     let (mut sim, origin) = default_scene_with_tool(integrator, settings);
-    for frame in 0..2000 {
+    for frame in 0..frames {
         let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
         sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
         sim.step();
+        after_step(frame, &mut sim);
     }
+    sim
+}
+
+/// Presses the tool 8 mm into the skin over 0.5 s and holds it to 2 s; returns the
+/// simulation and the vertical force on the tool, N.
+fn press(integrator: IntegratorKind, settings: Option<MultirateSettings>) -> (Simulation<f32>, f64) {
+    let sim = press_for(integrator, settings, 2000, |_, _| {});
     assert_eq!(sim.guard_totals().rollbacks, 0);
     let force = sim.tool_feedback().force[1];
     (sim, force)
@@ -335,23 +348,20 @@ fn multirate_bulk_feels_handles_and_loads_changed_while_running_works() {
 #[test]
 fn multirate_coupling_settles_back_after_a_kick_works() {
     let kicked = |settings: Option<MultirateSettings>| {
-        let (mut sim, origin) = default_scene_with_tool(IntegratorKind::ImplicitFactored, settings);
         let mut gap_after_kick = 0.0f64;
-        for frame in 0..1500 {
-            let depth = 0.008 * (frame as f64 / 500.0).min(1.0);
-            sim.effects_mut().tool.as_mut().unwrap().start = [origin[0], origin[1] - depth, origin[2]];
-            if frame == 600 {
+        let sim = press_for(IntegratorKind::ImplicitFactored, settings, 1500, |frame, sim| {
+            if frame == 599 {
+                // Lifted before frame 600.
                 for i in 0..sim.state().x.len() {
                     if sim.node_is_free(i) {
                         sim.state_mut().x.y[i] += 0.002;
                     }
                 }
             }
-            sim.step();
             if (600..700).contains(&frame) {
                 gap_after_kick = gap_after_kick.max(sim.multirate_status().map_or(0.0, |m| m.coupling_gap_m));
             }
-        }
+        });
         (sim, gap_after_kick)
     };
     let (single, _) = kicked(None);

@@ -42,6 +42,16 @@ pub fn run_lamina(args: &[&str]) -> (bool, String) {
     (out.status.success(), text)
 }
 
+/// Runs `lamina` with `command` followed by each case's arguments and asserts it refuses them,
+/// its output naming what the case gives (the option and value, or the reason).
+pub fn assert_lamina_refuses(command: &[&str], cases: &[(&[&str], &str)]) {
+    for (args, named) in cases {
+        let (ok, text) = run_lamina(&[command, args].concat());
+        assert!(!ok, "{args:?} accepted: {text}");
+        assert!(text.contains(named), "{args:?}: {text}");
+    }
+}
+
 /// A service prefix no other test or run uses.
 pub fn unique_prefix(tag: &str) -> String {
     let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());

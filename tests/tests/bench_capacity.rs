@@ -2,7 +2,7 @@
 //! options refused by name before anything is measured (a grid whose model does not build is
 //! reported and skipped instead, like a scene that does not load).
 
-use lamina_tests::run_lamina;
+use lamina_tests::{assert_lamina_refuses, run_lamina};
 
 fn capacity(args: &[&str]) -> (bool, String) {
     run_lamina(&[&["bench", "capacity"], args].concat())
@@ -41,15 +41,14 @@ fn bench_capacity_measures_a_scene_alone_works() {
 
 #[test]
 fn bench_capacity_refuses_bad_options_by_name_fails() {
-    for (args, named) in [
-        (&["--grids", "", "--scenes", ""][..], "nothing to measure"),
-        (&["--grids", "24"][..], "unknown grid '24'"),
-        (&["--ratio", "1"][..], "--ratio 1"),
-        (&["--threads", "0"][..], "thread count '0'"),
-        (&["--ticks", "2"][..], "--ticks 2"),
-    ] {
-        let (ok, text) = capacity(args);
-        assert!(!ok, "{args:?} accepted: {text}");
-        assert!(text.contains(named), "{args:?}: {text}");
-    }
+    assert_lamina_refuses(
+        &["bench", "capacity"],
+        &[
+            (&["--grids", "", "--scenes", ""], "nothing to measure"),
+            (&["--grids", "24"], "unknown grid '24'"),
+            (&["--ratio", "1"], "--ratio 1"),
+            (&["--threads", "0"], "thread count '0'"),
+            (&["--ticks", "2"], "--ticks 2"),
+        ],
+    );
 }
