@@ -33,7 +33,8 @@ use crate::render::{
 use crate::scene_mesh::SceneMesh;
 use crate::timing::{FrameTiming, elapsed_ns};
 use crate::view_model::{Frame, TissueSet, ViewModel};
-use crate::volume::{PROCEDURAL_VOXELS, VolumeImage, bake_procedural, read_nifti};
+use crate::volume::{PROCEDURAL_VOXELS, VolumeImage, bake_procedural};
+use crate::volume_file::read_volume;
 
 /// How the viewer draws. `Default`: 320 × 240, 4× MSAA, paper's φ, cut on, springs on the
 /// removed side, overlay on, volume texture on.
@@ -115,7 +116,7 @@ impl Composer {
     pub fn set_model(&mut self, model: ViewModel) {
         (self.volume, self.volume_error, self.bake_ns) = (None, None, 0);
         if let Some(spec) = &model.volume {
-            match read_nifti(spec) {
+            match read_volume(spec) {
                 Ok(v) => self.volume = Some(v),
                 Err(e) => self.volume_error = Some(e.to_string()),
             }

@@ -105,8 +105,8 @@ struct Args {
     /// No volume texture: each tissue in its flat colour (key T switches it in the window).
     #[arg(long)]
     no_texture: bool,
-    /// Volume texture: a NIfTI-1 file (.nii or .nii.gz), placed by its header's origin and
-    /// spacing, drawn through its full intensity range (a scene's [visual] table can say more).
+    /// Volume texture: a NIfTI-1 file (.nii or .nii.gz) or a NRRD file (.nrrd, or .nhdr with
+    /// its data file), placed by its header's origin and spacing, drawn through its full intensity range (a scene's [visual] table can say more).
     /// Default: the scene's [visual] volume, else a procedural one.
     #[arg(long, value_name = "FILE")]
     volume: Option<PathBuf>,
@@ -201,7 +201,7 @@ fn replay_model(args: &Args) -> anyhow::Result<ViewModel> {
 fn open_source(args: &Args) -> anyhow::Result<Box<dyn FrameSource>> {
     let source = open_model_source(args)?;
     let Some(path) = &args.volume else { return Ok(source) };
-    lamina_viewer::volume::read_nifti_header(path).map_err(anyhow::Error::msg)?;
+    lamina_viewer::volume_file::read_volume_header(path).map_err(anyhow::Error::msg)?;
     let spec = lamina_viewer::view_model::VolumeSpec { path: path.clone(), ..Default::default() };
     Ok(Box::new(lamina_viewer::volume::WithVolume::new(source, spec)))
 }

@@ -96,10 +96,10 @@ pub struct ViewModel {
     pub volume: Option<VolumeSpec>,
 }
 
-/// Where the viewer finds a user's volume texture (a NIfTI-1 file) and how it places it.
+/// Where the viewer finds a user's volume texture (a NIfTI-1 or NRRD file) and how it places it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct VolumeSpec {
-    /// The file, `.nii` or `.nii.gz`.
+    /// The file: NIfTI-1 (`.nii`, `.nii.gz`) or NRRD (`.nrrd`, `.nhdr`), told apart by its name.
     pub path: std::path::PathBuf,
     /// Position of the first voxel's centre, metres, model frame. `None`: the header's origin.
     pub origin_m: Option<[f32; 3]>,

@@ -3,9 +3,10 @@
 //! the tissue and a cut shows the anatomy inside.
 //!
 //! Two sources:
-//! - a user's volume, a NIfTI-1 file ([`read_nifti`]): its voxels as grey levels through an
-//!   intensity window (or as colours, for an RGB volume such as a cryosection series), placed
-//!   in the model frame by the origin and spacing of its header (or the scene's `origin_m`);
+//! - a user's volume, a NIfTI-1 file ([`read_nifti`]) or a NRRD file ([`read_nrrd`](crate::nrrd::read_nrrd)),
+//!   told apart by its name ([`read_volume`](crate::volume_file::read_volume)): its voxels as grey levels through an intensity
+//!   window (or as colours, for an RGB volume such as a cryosection series), placed in the
+//!   model frame by the origin and spacing of its header (or the scene's `origin_m`);
 //! - otherwise a procedural one ([`bake_procedural`]), baked on the CPU when the first frame
 //!   arrives: each voxel takes the tissue of the nearest rest sample (the nodes, and points
 //!   between nested boundary grids) and that tissue's texture: skin with fine speckle, fat in
@@ -145,6 +146,24 @@ pub enum VolumeError {
         /// What is wrong.
         message: String,
     },
+    /// A line of a NRRD header is wrong, or a field it needs is missing.
+    #[error("volume {}: line {line}: not a usable NRRD header: {message}", .path.display())]
+    NrrdHeader {
+        /// File.
+        path: PathBuf,
+        /// Line of the header, from 1 (for a missing field: the header's last line).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A NRRD file's voxels do not match its header (too few, not decodable).
+    #[error("volume {}: NRRD data: {message}", .path.display())]
+    NrrdData {
+        /// The file holding the voxels.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// The volume is larger than [`MAX_TEXTURE_BYTES`] as a texture.
     #[error(
         "volume {}: {}x{}x{} voxels would take {:.2} GiB of texture, more than the 1 GiB limit",
@@ -170,17 +189,47 @@ pub enum VolumeError {
     },
 }
 
-/// What a NIfTI header says about the volume, metres.
+/// What a volume file's header says about the volume, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NiftiGeometry {
+pub struct VolumeGeometry {
     /// Voxels along x, y, z.
     pub dims: [u32; 3],
     /// Voxel spacing, metres.
     pub spacing_m: Vec3,
-    /// Centre of the first voxel, metres (the `sform` offset, else the `qform` offset, else 0).
+    /// Centre of the first voxel, metres (NIfTI: the `sform` offset, else the `qform` offset,
+    /// else 0; NRRD: `space origin`, else 0).
     pub origin_m: Vec3,
     /// Storage of each voxel as a texture.
     pub format: VoxelFormat,
+}
+
+impl VolumeGeometry {
+    /// The volume of these voxels (`data`, x fastest, in `self.format`), its first voxel's
+    /// centre at `origin_m` (metres, model frame), else at the header's origin.
+    ///
+    /// # Panics
+    /// If `data` does not hold exactly one voxel per cell.
+    pub fn image(&self, data: Vec<u8>, origin_m: Option<[f32; 3]>) -> VolumeImage {
+        let origin = origin_m.map_or(self.origin_m, Vec3::from_array);
+        let box_size = Vec3::from_array(self.dims.map(|n| n as f32)) * self.spacing_m;
+        VolumeImage::new(self.dims, self.format, data, origin - self.spacing_m * 0.5, box_size)
+    }
+}
+
+/// Grey levels (0 black, 255 white) of the voxel values of `path` through `window`
+/// (`[lo, hi]`; `None`: the values' minimum and maximum). Refuses NaN and infinite values.
+pub(crate) fn grey_levels(path: &Path, values: Vec<f64>, window: Option<[f32; 2]>) -> Result<Vec<u8>, VolumeError> {
+    let non_finite = values.iter().filter(|v| !v.is_finite()).count();
+    if non_finite > 0 {
+        let first = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        return Err(VolumeError::NonFinite { path: path.to_path_buf(), count: non_finite, first });
+    }
+    let [lo, hi] = match window {
+        Some([lo, hi]) => [f64::from(lo), f64::from(hi)],
+        None => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &v| [lo.min(v), hi.max(v)]),
+    };
+    let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
+    Ok(values.iter().map(|&v| ((v - lo) * scale).clamp(0.0, 255.0).round() as u8).collect())
 }
 
 fn nifti_error(path: &Path, e: nifti::NiftiError) -> VolumeError {
@@ -196,7 +245,7 @@ fn nifti_error(path: &Path, e: nifti::NiftiError) -> VolumeError {
 /// texture of at most [`MAX_TEXTURE_BYTES`]. Lengths in the header's units (metres,
 /// millimetres, micrometres; unknown: millimetres) are converted to metres. The volume's axes
 /// are taken along the model's x, y and z: rotations and flips in the header are not applied.
-pub fn read_nifti_header(path: &Path) -> Result<NiftiGeometry, VolumeError> {
+pub fn read_nifti_header(path: &Path) -> Result<VolumeGeometry, VolumeError> {
     use nifti::NiftiType;
     let header = nifti::NiftiHeader::from_file(path).map_err(|e| nifti_error(path, e))?;
     let bad = |message: String| VolumeError::Header { path: path.to_path_buf(), message };
@@ -243,7 +292,7 @@ pub fn read_nifti_header(path: &Path) -> Result<NiftiGeometry, VolumeError> {
     if !origin.is_finite() {
         return Err(bad(format!("origin {origin:?} is not finite")));
     }
-    Ok(NiftiGeometry { dims, spacing_m: spacing * unit_m, origin_m: origin * unit_m, format })
+    Ok(VolumeGeometry { dims, spacing_m: spacing * unit_m, origin_m: origin * unit_m, format })
 }
 
 /// Reads the volume of `spec` (see [`read_nifti_header`] for what is accepted): grey volumes
@@ -299,27 +348,14 @@ pub fn read_nifti(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
                     message: format!("{} voxels in the file, {count} expected", values.len()),
                 });
             }
-            let non_finite = values.iter().filter(|v| !v.is_finite()).count();
-            if non_finite > 0 {
-                let first = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
-                return Err(VolumeError::NonFinite { path: path.to_path_buf(), count: non_finite, first });
-            }
             if slope != 0.0 && slope.is_finite() && inter.is_finite() {
                 let (slope, inter) = (f64::from(slope), f64::from(inter));
                 values.iter_mut().for_each(|v| *v = *v * slope + inter);
             }
-            let [lo, hi] = match spec.window {
-                Some([lo, hi]) => [f64::from(lo), f64::from(hi)],
-                None => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &v| [lo.min(v), hi.max(v)]),
-            };
-            let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
-            values.iter().map(|&v| ((v - lo) * scale).clamp(0.0, 255.0).round() as u8).collect()
+            grey_levels(path, values, spec.window)?
         }
     };
-    let origin = spec.origin_m.map_or(geometry.origin_m, Vec3::from_array);
-    let spacing = geometry.spacing_m;
-    let box_size = Vec3::new(geometry.dims[0] as f32, geometry.dims[1] as f32, geometry.dims[2] as f32) * spacing;
-    Ok(VolumeImage::new(geometry.dims, geometry.format, data, origin - spacing * 0.5, box_size))
+    Ok(geometry.image(data, spec.origin_m))
 }
 
 /// A source that gives every model it passes on the volume `spec` (`lamina-viewer --volume`).

@@ -3,7 +3,7 @@
 //!
 //! ```toml
 //! [visual]
-//! volume = "limb_volume.nii.gz"   # NIfTI-1 volume texture, relative to the scene file
+//! volume = "limb_volume.nii.gz"   # NIfTI-1 or NRRD volume texture, relative to the scene file
 //! origin_m = [-0.15, -0.06, -0.06] # first voxel's centre, metres (default: the header's)
 //! window = [0.0, 255.0]           # intensities drawn black and white (default: min, max)
 //! ```
@@ -15,12 +15,14 @@ use std::path::{Path, PathBuf};
 /// The `[visual]` table of a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VisualSection {
-    /// The volume texture: a NIfTI-1 file (`.nii` or `.nii.gz`), absolute or relative to the
+    /// The volume texture: a NIfTI-1 file (`.nii`, `.nii.gz`) or a NRRD file (`.nrrd`,
+    /// `.nhdr`), absolute or relative to the
     /// scene file's folder as written, made absolute here. It must exist when the scene is
     /// loaded; its header and voxels are checked by the viewer that reads it.
     pub volume: PathBuf,
     /// Where the centre of the volume's first voxel lies, metres, model frame. `None`: the
-    /// origin in the file's header (its `sform`, else its `qform` offset), converted to metres.
+    /// origin in the file's header (NIfTI: its `sform`, else its `qform` offset; NRRD: its
+    /// `space origin`), converted to metres.
     pub origin_m: Option<[f64; 3]>,
     /// Intensity window `[lo, hi]`: `lo` and below is drawn black, `hi` and above white.
     /// `None`: the data's minimum and maximum.
@@ -46,7 +48,10 @@ pub(super) fn visual_section(raw: Option<RawVisual>, base: &Path) -> Result<Opti
         return Ok(None);
     };
     if volume.trim().is_empty() {
-        return Err(FieldError::new("visual.volume", "must name a NIfTI file (.nii or .nii.gz)"));
+        return Err(FieldError::new(
+            "visual.volume",
+            "must name a NIfTI-1 (.nii, .nii.gz) or NRRD (.nrrd, .nhdr) file",
+        ));
     }
     let path = base.join(&volume);
     let path = std::path::absolute(&path).unwrap_or(path);
