@@ -4,10 +4,11 @@
 //! `lamina run` can be set against what the machine does to any loop of the same length.
 
 use super::machine;
+use lamina_rt::standby::{Grid, run_with_standby};
 use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
-    DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest, RealtimeSetup,
-    RunLimit,
+    Clock, DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest,
+    RealtimeSetup, RunLimit,
 };
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -40,6 +41,17 @@ pub struct NoiseOptions {
     pub cpu: Option<usize>,
     /// SCHED_FIFO priority, 0 for none.
     pub fifo_priority: i32,
+    /// A standby thread to measure beside the loop alone; `None`: the loop alone.
+    pub standby: Option<Standby>,
+}
+
+/// A standby thread for the loop ([`lamina_rt::standby`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Standby {
+    /// CPU it is pinned to.
+    pub cpu: usize,
+    /// How long after a tick's deadline it takes a tick still not started, µs.
+    pub delay_us: u32,
 }
 
 /// Synthetic work: a dependent read-modify-write walk over a buffer, one cache line per
@@ -144,6 +156,11 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
     if let Some(bad) = opts.sleep_slices_us.iter().find(|&&s| s != 0 && !(10..=1_000_000).contains(&s)) {
         return Err(format!("--sleep-slices-us {bad}: 0 (one sleep) or 10 to 1000000"));
     }
+    if let Some(s) = opts.standby
+        && !(10.0..period_us).contains(&f64::from(s.delay_us))
+    {
+        return Err(format!("--standby-delay-us {}: 10 to less than the period, {period_us:.1} µs", s.delay_us));
+    }
     let ticks = (opts.seconds * f64::from(opts.rate_hz)).ceil() as usize;
     if ticks > MAX_TICKS {
         return Err(format!(
@@ -171,39 +188,73 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
         opts.seconds
     );
     println!(
-        "\n| sleep slice | ticks | misses | lateness p99 | lateness max | work p50 | work p99 | work max | slow ticks | slow bursts | longest burst | host steal on the CPU |"
+        "\n| sleep slice | standby | ticks | misses | lateness p99 | lateness max | work p50 | work p99 | work max | slow ticks | slow bursts | longest burst | host steal on the CPU |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &slice in &opts.sleep_slices_us {
-        let clock = MonotonicClock::new().with_sleep_slice_ns(u64::from(slice) * 1_000);
-        let mut lp = FixedRateLoop::try_new(clock, opts.rate_hz, OverrunPolicy::Skip).map_err(|e| e.to_string())?;
-        let config = MonitorConfig::for_period_ns(lp.period_ns()).with_record_capacity(ticks);
-        let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
-        let steal_before = StealSnapshot::read().ok();
-        let mut sink = 0.0f32;
-        lp.run(RunLimit::duration_ns((opts.seconds * 1e9) as u64), &mut monitor, |_| {
-            sink += work.walk(elements);
-            ControlFlow::Continue(())
-        });
-        std::hint::black_box(sink);
-        let stolen = super::run::loop_steal_ms(StealSnapshot::read().ok().as_ref(), steal_before.as_ref(), cpu);
-        let s = monitor.summary();
-        let bursts = slow_bursts(monitor.records().iter().map(|r| r.compute_ns), s.compute.p50_ns * SLOW_FACTOR);
-        let us = |ns: u64| format!("{:.1} µs", ns as f64 / 1e3);
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} ticks | {stolen} |",
-            if slice == 0 { "one sleep".to_string() } else { format!("{slice} µs") },
-            s.ticks,
-            s.misses,
-            us(s.lateness.p99_ns),
-            us(s.lateness.max_ns),
-            us(s.compute.p50_ns),
-            us(s.compute.p99_ns),
-            us(s.compute.max_ns),
-            bursts.slow_ticks,
-            bursts.count,
-            bursts.longest,
-        );
+        for standby in std::iter::once(None).chain(opts.standby.map(Some)) {
+            let clock = MonotonicClock::new().with_sleep_slice_ns(u64::from(slice) * 1_000);
+            let mut lp = FixedRateLoop::try_new(clock, opts.rate_hz, OverrunPolicy::Skip).map_err(|e| e.to_string())?;
+            let config = MonitorConfig::for_period_ns(lp.period_ns()).with_record_capacity(ticks);
+            let mut monitor = DeadlineMonitor::try_new(config).map_err(|e| e.to_string())?;
+            let steal_before = StealSnapshot::read().ok();
+            let mut sink = 0.0f32;
+            let window_ns = (opts.seconds * 1e9) as u64;
+            let standby_cell = match standby {
+                None => {
+                    lp.run(RunLimit::duration_ns(window_ns), &mut monitor, |_| {
+                        sink += work.walk(elements);
+                        ControlFlow::Continue(())
+                    });
+                    "none".to_string()
+                }
+                Some(s) => {
+                    let period_ns = lp.period_ns();
+                    let grid = Grid {
+                        origin_ns: clock.now() + period_ns,
+                        period_ns,
+                        slots: window_ns.div_ceil(period_ns),
+                        standby_delay_ns: u64::from(s.delay_us) * 1_000,
+                    };
+                    let mut standby_request = request;
+                    standby_request.cpu = Some(s.cpu);
+                    standby_request.lock_memory = false;
+                    standby_request.fifo_priority = request.fifo_priority.map(|p| (p - 1).max(1));
+                    let mut state = (&mut work, &mut sink);
+                    let summary = run_with_standby(
+                        [&clock, &clock],
+                        grid,
+                        &mut monitor,
+                        &mut state,
+                        || RealtimeSetup::apply(&standby_request).all_granted(),
+                        |(work, sink), _, _| **sink += work.walk(elements),
+                    );
+                    if !summary.standby_setup {
+                        eprintln!("warning: the standby thread's pinning to CPU {} or priority was refused", s.cpu);
+                    }
+                    format!("CPU {}, {} µs: ran {} ticks", s.cpu, s.delay_us, summary.by_standby)
+                }
+            };
+            std::hint::black_box(sink);
+            let stolen = super::run::loop_steal_ms(StealSnapshot::read().ok().as_ref(), steal_before.as_ref(), cpu);
+            let s = monitor.summary();
+            let bursts = slow_bursts(monitor.records().iter().map(|r| r.compute_ns), s.compute.p50_ns * SLOW_FACTOR);
+            let us = |ns: u64| format!("{:.1} µs", ns as f64 / 1e3);
+            println!(
+                "| {} | {standby_cell} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} ticks | {stolen} |",
+                if slice == 0 { "one sleep".to_string() } else { format!("{slice} µs") },
+                s.ticks,
+                s.misses,
+                us(s.lateness.p99_ns),
+                us(s.lateness.max_ns),
+                us(s.compute.p50_ns),
+                us(s.compute.p99_ns),
+                us(s.compute.max_ns),
+                bursts.slow_ticks,
+                bursts.count,
+                bursts.longest,
+            );
+        }
     }
     println!(
         "\nmisses: ticks whose work ended after the budget (the period). Slow ticks are ones the machine slowed: the same work took {SLOW_FACTOR}x its median or more. Set a `lamina run` against these figures at the same compute per tick: misses it shares with this loop belong to the machine."

@@ -332,6 +332,16 @@ enum BenchCommand {
         /// SCHED_FIFO priority (0 leaves it); `lamina run`'s default is 80.
         #[arg(long, default_value_t = 80)]
         fifo_priority: i32,
+        /// Also run each sleep slice with a standby thread pinned to this CPU (SCHED_FIFO one
+        /// below the loop): it runs a tick whose loop thread has not started it
+        /// --standby-delay-us after its deadline, as when the host has stopped the loop's
+        /// virtual CPU. Each slice is then measured alone, then with the standby.
+        #[arg(long)]
+        standby_cpu: Option<usize>,
+        /// How long after a tick's deadline the standby takes a tick still not started, µs,
+        /// 10 to less than the period.
+        #[arg(long, default_value_t = 250)]
+        standby_delay_us: u32,
     },
     /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
     Yardstick {
@@ -465,7 +475,17 @@ fn run(command: Command) -> Result<(), String> {
         }
         Command::Bench {
             what:
-                BenchCommand::Noise { seconds, rate_hz, work_us, working_set_kib, sleep_slices_us, cpu, fifo_priority },
+                BenchCommand::Noise {
+                    seconds,
+                    rate_hz,
+                    work_us,
+                    working_set_kib,
+                    sleep_slices_us,
+                    cpu,
+                    fifo_priority,
+                    standby_cpu,
+                    standby_delay_us,
+                },
         } => bench_noise::bench(&bench_noise::NoiseOptions {
             seconds,
             rate_hz,
@@ -474,6 +494,7 @@ fn run(command: Command) -> Result<(), String> {
             sleep_slices_us: parse_list(&sleep_slices_us, "sleep slice", |p| p.parse().ok())?,
             cpu,
             fifo_priority,
+            standby: standby_cpu.map(|cpu| bench_noise::Standby { cpu, delay_us: standby_delay_us }),
         }),
         Command::Run {
             scene,

@@ -52,6 +52,7 @@ pub mod monitor;
 pub mod ring;
 pub mod setup;
 pub mod signal;
+pub mod standby;
 pub mod steal;
 pub mod summary;
 pub mod tick;

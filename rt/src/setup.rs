@@ -99,14 +99,17 @@ fn errno() -> i32 {
 ///
 /// Allocates (it lists the allowed CPUs): call it at start-up, not in a loop.
 pub fn pin_current_thread(cpu: usize) -> Result<(), ThreadPinError> {
-    let ids = core_affinity::get_core_ids().unwrap_or_default();
-    if !ids.iter().any(|c| c.id == cpu) {
-        return Err(ThreadPinError::CpuUnavailable { cpu, available: ids.len() });
+    // The kernel checks `cpu` against the process's cpuset. This thread's own mask is not
+    // consulted first: it may be narrower (a thread spawned by a pinned one inherits its CPU).
+    let settable = cpu < libc::CPU_SETSIZE as usize;
+    if settable && core_affinity::set_for_current(core_affinity::CoreId { id: cpu }) {
+        return Ok(());
     }
-    if core_affinity::set_for_current(core_affinity::CoreId { id: cpu }) {
-        Ok(())
-    } else {
+    let ids = core_affinity::get_core_ids().unwrap_or_default();
+    if settable && ids.iter().any(|c| c.id == cpu) {
         Err(ThreadPinError::Refused { cpu })
+    } else {
+        Err(ThreadPinError::CpuUnavailable { cpu, available: ids.len() })
     }
 }
 
