@@ -212,6 +212,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                     let period_ns = lp.period_ns();
                     let grid = Grid {
                         origin_ns: clock.now() + period_ns,
+                        first_tick: 0,
                         period_ns,
                         slots: window_ns.div_ceil(period_ns),
                         standby_delay_ns: u64::from(s.delay_us) * 1_000,
@@ -224,10 +225,14 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                     let summary = run_with_standby(
                         [&clock, &clock],
                         grid,
+                        None,
                         &mut monitor,
                         &mut state,
                         || RealtimeSetup::apply(&standby_request).all_granted(),
-                        |(work, sink), _, _| **sink += work.walk(elements),
+                        |(work, sink), _, _| {
+                            **sink += work.walk(elements);
+                            ControlFlow::Continue(())
+                        },
                     );
                     if !summary.standby_setup {
                         eprintln!("warning: the standby thread's pinning to CPU {} or priority was refused", s.cpu);

@@ -5,12 +5,13 @@ use super::frame_gate::NodeFrameGate;
 use lamina_core::hand_tool::HandTool;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
-use lamina_core::scene::{OverrunChoice, Precision, Scene};
+use lamina_core::scene::{OverrunChoice, Precision, STANDBY_DELAY_US, Scene};
 use lamina_core::solver::{LateBuild, Simulation};
+use lamina_rt::standby::{Grid, StandbySummary, run_with_standby};
 use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
     Clock, DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest,
-    RealtimeSetup, RunLimit, StopReason, available_cpus, install_stop_handler,
+    RealtimeSetup, RunLimit, SendProbe, StopReason, TickInfo, available_cpus, install_stop_handler,
 };
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -168,35 +169,29 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let mut steal_before = steal_at_start.clone();
     let cpu = loop_cpu(scene);
     let mut out = std::io::stdout().lock();
+    let standby = scene.realtime.standby_cpu.map(|cpu| Standby::start(scene, cpu, lp.period_ns()));
+    let mut standby_ticks = 0u64;
     while elapsed_ns < total_ns {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
         let clock = loop_clock;
-        let run = lp.run(RunLimit::duration_ns(chunk).and_stop_flag(&STOP), &mut monitor, |info| {
-            if let Some(h) = publisher.as_mut().and_then(|p| p.haptic.as_mut()) {
-                h.before_step(&mut sim);
+        let mut state = TickState {
+            sim: &mut sim,
+            publisher: OneThreadAtATime(publisher.as_mut()),
+            recorder: recorder.as_mut(),
+            frame_gate: &mut frame_gate,
+            stopped_after: &mut stopped_after,
+        };
+        let stop = match &standby {
+            None => {
+                let limit = RunLimit::duration_ns(chunk).and_stop_flag(&STOP);
+                lp.run(limit, &mut monitor, |info| state.tick(info, &clock, &probe)).stop
             }
-            let before = sim.counters().substeps;
-            if !sim.step_or_stop(&STOP) {
-                // Stopped between two sub-steps: the partial frame is not published.
-                stopped_after = Some(sim.counters().substeps - before);
-                return ControlFlow::Break(());
+            Some(standby) => {
+                let run = standby.run(chunk, &clock, &mut monitor, &mut state, &probe);
+                standby_ticks += run.by_standby;
+                run.stop
             }
-            if let Some(rec) = recorder.as_mut() {
-                // A copy into a preallocated slot; the writer thread does the rest.
-                rec.after_step(sim.state());
-            }
-            if let Some(p) = publisher.as_mut() {
-                probe.measure(&clock, || {
-                    if let Some(h) = p.haptic.as_mut() {
-                        h.after_step(&sim, info.tick);
-                    }
-                    if frame_gate.write_now(info.tick, || clock.now().saturating_sub(info.scheduled_ns)) {
-                        p.publish_nodes(info.tick, sim.state(), sim.frame_changes());
-                    }
-                });
-            }
-            ControlFlow::Continue(())
-        });
+        };
         elapsed_ns += chunk;
         second += 1;
         let s = monitor.summary();
@@ -222,7 +217,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             );
             steal_before = steal_now;
         }
-        if run.stop == StopReason::StopFlag || STOP.load(std::sync::atomic::Ordering::Relaxed) {
+        if stop == StopReason::StopFlag || STOP.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }
     }
@@ -241,6 +236,11 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let _ = lp.clock().now();
     drop(out);
     println!("\n{monitor}");
+    if let Some(cpu) = scene.realtime.standby_cpu {
+        println!(
+            "standby on CPU {cpu}: ran {standby_ticks} ticks the loop's thread had not started {STANDBY_DELAY_US} µs after their deadline"
+        );
+    }
     if let Some(hint) = machine_misses_hint(&monitor.summary()) {
         println!("{hint}");
     }
@@ -271,6 +271,121 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         ));
     }
     Ok(())
+}
+
+/// What one tick touches. The loop's thread and the standby (if any) hold it one at a time.
+struct TickState<'a, T: Real> {
+    sim: &'a mut Simulation<T>,
+    publisher: OneThreadAtATime<Option<&'a mut super::publish::CorePublisher>>,
+    recorder: Option<&'a mut super::record::Recorder>,
+    frame_gate: &'a mut NodeFrameGate,
+    /// Sub-steps done when a stop signal ended a frame, if one did.
+    stopped_after: &'a mut Option<u64>,
+}
+
+/// A value that may move from thread to thread as long as one thread at a time uses it.
+///
+/// The publisher holds every iceoryx2 object of the process: the node and its ports, of the
+/// single-threaded service kind, whose shared state is counted by `Rc`. It is reached only
+/// through a [`TickState`], which the standby's baton hands from one thread to the other
+/// (`lamina_rt::standby`): one holder at a time, each hand-over a release the next holder
+/// acquires, so no two threads ever touch those counts at once. Between chunks only the
+/// loop's thread runs.
+struct OneThreadAtATime<P>(P);
+
+// SAFETY: see the type's documentation: the value moves between threads whole and is used by
+// one of them at a time, each hand-over ordered by the baton's release and acquire.
+unsafe impl<P> Send for OneThreadAtATime<P> {}
+
+impl<T: Real> TickState<'_, T> {
+    /// One tick: the haptic command in, one step, the recorder's copy, the feedback and the
+    /// node frame out. `Break` when a stop signal ended the step (the partial frame is not
+    /// published).
+    fn tick(&mut self, info: TickInfo, clock: &MonotonicClock, probe: &SendProbe) -> ControlFlow<()> {
+        let publisher = &mut self.publisher.0;
+        if let Some(h) = publisher.as_mut().and_then(|p| p.haptic.as_mut()) {
+            h.before_step(self.sim);
+        }
+        let before = self.sim.counters().substeps;
+        if !self.sim.step_or_stop(&STOP) {
+            *self.stopped_after = Some(self.sim.counters().substeps - before);
+            return ControlFlow::Break(());
+        }
+        if let Some(rec) = self.recorder.as_mut() {
+            // A copy into a preallocated slot; the writer thread does the rest.
+            rec.after_step(self.sim.state());
+        }
+        if let Some(p) = publisher.as_mut() {
+            let (sim, frame_gate) = (&*self.sim, &mut *self.frame_gate);
+            probe.measure(clock, || {
+                if let Some(h) = p.haptic.as_mut() {
+                    h.after_step(sim, info.tick);
+                }
+                if frame_gate.write_now(info.tick, || clock.now().saturating_sub(info.scheduled_ns)) {
+                    p.publish_nodes(info.tick, sim.state(), sim.frame_changes());
+                }
+            });
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+/// The standby of `[realtime] standby_cpu`: where the next chunk of the grid starts, and how
+/// its thread is set up.
+struct Standby {
+    request: RealtimeRequest,
+    period_ns: u64,
+    next_origin_ns: std::cell::Cell<u64>,
+    next_tick: std::cell::Cell<u64>,
+}
+
+impl Standby {
+    /// A standby on `cpu`, one SCHED_FIFO priority below the loop's, its grid starting one
+    /// period from now.
+    fn start(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
+        let mut request = RealtimeRequest::new().pin_to(cpu);
+        if let Some(p) = scene.realtime.fifo_priority {
+            request = request.fifo_priority((p - 1).max(1));
+        }
+        let origin = MonotonicClock::new().now() + period_ns;
+        Self { request, period_ns, next_origin_ns: std::cell::Cell::new(origin), next_tick: std::cell::Cell::new(0) }
+    }
+
+    /// Runs the next `chunk_ns` of the grid with the standby beside the loop's thread.
+    fn run<T: Real>(
+        &self,
+        chunk_ns: u64,
+        clock: &MonotonicClock,
+        monitor: &mut DeadlineMonitor,
+        state: &mut TickState<'_, T>,
+        probe: &SendProbe,
+    ) -> StandbySummary<()> {
+        let slots = chunk_ns.div_ceil(self.period_ns);
+        let grid = Grid {
+            origin_ns: self.next_origin_ns.get(),
+            first_tick: self.next_tick.get(),
+            period_ns: self.period_ns,
+            slots,
+            standby_delay_ns: u64::from(STANDBY_DELAY_US) * 1_000,
+        };
+        let request = self.request;
+        let setup = move || {
+            let setup = RealtimeSetup::apply(&request);
+            if !setup.all_granted() {
+                tracing::warn!("standby thread: {setup}");
+            }
+        };
+        // One sleep per wait: the standby shares its CPU with the bulk's thread, which every
+        // wake-up would interrupt.
+        let standby_clock = clock.with_sleep_slice_ns(0);
+        let clocks = [clock, &standby_clock];
+        let run = run_with_standby(clocks, grid, Some(&STOP), monitor, state, setup, |state, info, _| {
+            state.tick(info, clock, probe)
+        });
+        self.next_origin_ns.set(grid.origin_ns + slots * self.period_ns);
+        self.next_tick.set(grid.first_tick + run.ticks);
+        run
+    }
 }
 
 /// Refuses run lengths and tick rings outside their bounds, naming the option and value.
@@ -437,6 +552,11 @@ fn apply_realtime_setup(scene: &Scene) {
     }
     let setup = RealtimeSetup::apply(&request);
     print!("{setup}");
+    if let Some(standby) = scene.realtime.standby_cpu {
+        println!(
+            "  standby         cpu {standby}, SCHED_FIFO one below the loop: runs a tick the loop's thread has not started {STANDBY_DELAY_US} µs after its deadline ([realtime] standby_cpu)"
+        );
+    }
     match scene.realtime.sleep_slice_us {
         0 => println!("  between ticks   one sleep to the next tick ([realtime] sleep_slice_us = 0)"),
         us => println!(

@@ -17,18 +17,22 @@
 //!
 //! let clock = MonotonicClock::new();
 //! let origin_ns = clock.now() + 1_000_000;
-//! let grid = Grid { origin_ns, period_ns: 1_000_000, slots: 10, standby_delay_ns: 250_000 };
+//! let grid = Grid { origin_ns, first_tick: 0, period_ns: 1_000_000, slots: 10, standby_delay_ns: 250_000 };
 //! let mut slots_run = Vec::new();
-//! let summary =
-//!     run_with_standby([&clock, &clock], grid, &mut (), &mut slots_run, || (), |run, info, _| run.push(info.slot));
+//! let summary = run_with_standby([&clock, &clock], grid, None, &mut (), &mut slots_run, || (), |run, info, _| {
+//!     run.push(info.slot);
+//!     std::ops::ControlFlow::Continue(())
+//! });
 //! assert!(slots_run.windows(2).all(|w| w[0] < w[1]));
 //! assert_eq!(summary.ticks + summary.skipped_periods, 10);
 //! ```
 
 use std::cell::UnsafeCell;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use crate::clock::Clock;
+use crate::fixed_rate::StopReason;
 use crate::tick::{TickInfo, TickObserver, TickSample};
 
 /// The right to run the next slot of a grid, and the state only its holder may touch.
@@ -105,6 +109,8 @@ impl<T> Drop for BatonGuard<'_, T> {
 pub struct Grid {
     /// Slot 0's deadline, ns on the clock's time line.
     pub origin_ns: u64,
+    /// The number slot 0's tick gets ([`TickInfo::tick`]), so that successive runs count on.
+    pub first_tick: u64,
     /// Period, ns (> 0).
     pub period_ns: u64,
     /// Slots in the run: the run ends once the next slot is `slots` or later.
@@ -125,6 +131,9 @@ pub enum Runner {
 /// What a [`run_with_standby`] call did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StandbySummary<R> {
+    /// Why it returned: [`StopReason::Duration`] (every slot of the grid was run or skipped),
+    /// [`StopReason::StopFlag`] or [`StopReason::Body`].
+    pub stop: StopReason,
     /// Ticks run, by either thread.
     pub ticks: u64,
     /// Of them, ticks the standby ran.
@@ -143,6 +152,7 @@ struct Shared<'a, O: ?Sized, S> {
     by_standby: u64,
     skipped: u64,
     prev_wake_ns: Option<u64>,
+    stop: StopReason,
 }
 
 /// Runs `body` once per slot of `grid`, from the calling thread and a standby thread
@@ -156,6 +166,8 @@ struct Shared<'a, O: ?Sized, S> {
 /// deadline runs the slot now due instead, the ones between counted as skipped (as
 /// [`OverrunPolicy::Skip`](crate::OverrunPolicy::Skip)). Each tick goes to `observer` as a
 /// [`TickSample`], from the thread that ran it; `body` gets `state`, the tick and who runs it.
+/// Both threads stop at the end of the grid, once `stop_flag` reads `true` (checked before
+/// each slot), or after a tick whose body returned `ControlFlow::Break`.
 ///
 /// ## Correctness
 ///
@@ -164,6 +176,7 @@ struct Shared<'a, O: ?Sized, S> {
 pub fn run_with_standby<C, O, S, R, F>(
     clocks: [&C; 2],
     grid: Grid,
+    stop_flag: Option<&AtomicBool>,
     observer: &mut O,
     state: &mut S,
     standby_setup: impl FnOnce() -> R + Send,
@@ -174,21 +187,24 @@ where
     O: TickObserver + Send + ?Sized,
     S: Send,
     R: Send,
-    F: Fn(&mut S, TickInfo, Runner) + Sync,
+    F: Fn(&mut S, TickInfo, Runner) -> ControlFlow<()> + Sync,
 {
     assert!(grid.period_ns > 0, "run_with_standby: a period of 0 ns");
-    let baton = TickBaton::new(0, Shared { observer, state, ticks: 0, by_standby: 0, skipped: 0, prev_wake_ns: None });
+    let shared =
+        Shared { observer, state, ticks: 0, by_standby: 0, skipped: 0, prev_wake_ns: None, stop: StopReason::Duration };
+    let baton = TickBaton::new(0, shared);
     let standby_setup = std::thread::scope(|scope| {
         let standby = scope.spawn(|| {
             let setup = standby_setup();
-            run_side(clocks[1], grid, &baton, &body, Runner::Standby);
+            run_side(clocks[1], grid, stop_flag, &baton, &body, Runner::Standby);
             setup
         });
-        run_side(clocks[0], grid, &baton, &body, Runner::Loop);
+        run_side(clocks[0], grid, stop_flag, &baton, &body, Runner::Loop);
         standby.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
     });
     let shared = baton.into_inner();
     StandbySummary {
+        stop: shared.stop,
         ticks: shared.ticks,
         by_standby: shared.by_standby,
         skipped_periods: shared.skipped,
@@ -197,11 +213,17 @@ where
 }
 
 /// One thread's side of [`run_with_standby`].
-fn run_side<C, O, S, F>(clock: &C, grid: Grid, baton: &TickBaton<Shared<'_, O, S>>, body: &F, runner: Runner)
-where
+fn run_side<C, O, S, F>(
+    clock: &C,
+    grid: Grid,
+    stop_flag: Option<&AtomicBool>,
+    baton: &TickBaton<Shared<'_, O, S>>,
+    body: &F,
+    runner: Runner,
+) where
     C: Clock,
     O: TickObserver + ?Sized,
-    F: Fn(&mut S, TickInfo, Runner),
+    F: Fn(&mut S, TickInfo, Runner) -> ControlFlow<()>,
 {
     let delay = if runner == Runner::Standby { grid.standby_delay_ns } else { 0 };
     let deadline = |slot: u64| grid.origin_ns.saturating_add(slot.saturating_mul(grid.period_ns));
@@ -217,6 +239,11 @@ where
         }
         clock.sleep_until(deadline(slot).saturating_add(delay));
         let Some(mut guard) = baton.claim(slot) else { continue };
+        if stop_flag.is_some_and(|f| f.load(Ordering::Relaxed)) {
+            guard.value().stop = StopReason::StopFlag;
+            guard.set_next_slot(grid.slots);
+            return;
+        }
         let wake_ns = clock.now();
         // A whole period late or more: run the slot now due, drop the ones between.
         let due = if wake_ns >= deadline(slot + 1) { (wake_ns - grid.origin_ns) / grid.period_ns } else { slot };
@@ -232,13 +259,13 @@ where
         }
         let scheduled_ns = deadline(due);
         let info = TickInfo {
-            tick: shared.ticks,
+            tick: grid.first_tick + shared.ticks,
             slot: due,
             scheduled_ns,
             wake_ns,
             lateness_ns: wake_ns.saturating_sub(scheduled_ns),
         };
-        body(shared.state, info, runner);
+        let flow = body(shared.state, info, runner);
         let end_ns = clock.now();
         shared.observer.on_tick(&TickSample {
             info,
@@ -253,6 +280,11 @@ where
         shared.prev_wake_ns = Some(wake_ns);
         shared.ticks += 1;
         shared.by_standby += u64::from(runner == Runner::Standby);
+        if flow.is_break() {
+            shared.stop = StopReason::Body;
+            guard.set_next_slot(grid.slots);
+            return;
+        }
         guard.set_next_slot(due + 1);
     }
 }
@@ -286,7 +318,7 @@ mod tests {
 
     fn grid(slots: u64, standby_delay_ns: u64) -> Grid {
         let origin_ns = MonotonicClock::new().now() + 2_000_000;
-        Grid { origin_ns, period_ns: 1_000_000, slots, standby_delay_ns }
+        Grid { origin_ns, first_tick: 0, period_ns: 1_000_000, slots, standby_delay_ns }
     }
 
     /// Every tick as (slot, runner), the loop's thread stalled `stall_ns` at the `stalled` slots.
@@ -297,10 +329,14 @@ mod tests {
         let summary = run_with_standby(
             [&loop_clock, &standby_clock],
             grid,
+            None,
             &mut (),
             &mut ticks,
             || "set up",
-            |ticks: &mut Vec<(u64, Runner)>, info, runner| ticks.push((info.slot, runner)),
+            |ticks: &mut Vec<(u64, Runner)>, info, runner| {
+                ticks.push((info.slot, runner));
+                ControlFlow::Continue(())
+            },
         );
         (ticks, summary)
     }

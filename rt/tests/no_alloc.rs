@@ -119,3 +119,46 @@ fn real_clock_sliced_sleeps_do_not_allocate_works() {
     assert_eq!(n, 0, "the real clock's loop allocated {n} times");
     assert!(ran > 0 && ran <= 200, "{ran} ticks");
 }
+
+#[test]
+fn standby_ticks_allocate_nothing_on_either_thread_works() {
+    use lamina_rt::standby::{Grid, Runner, run_with_standby};
+    use lamina_rt::{Clock, MonotonicClock};
+    // The standby wakes at each deadline too (no delay), so both threads claim ticks. From
+    // each thread's first tick on, its allocations are counted: its ticks, the monitor's
+    // records, its claims and sleeps.
+    let clock = MonotonicClock::new();
+    let grid = Grid {
+        origin_ns: clock.now() + 2_000_000,
+        first_tick: 0,
+        period_ns: 1_000_000,
+        slots: 2_000,
+        standby_delay_ns: 0,
+    };
+    let config = MonitorConfig::for_period_ns(grid.period_ns).with_record_capacity(2_000);
+    let mut monitor = DeadlineMonitor::try_new(config).unwrap();
+    // Per runner: the thread's allocation count at its first tick and at its last.
+    let mut counts: [Option<(u64, u64)>; 2] = [None; 2];
+    let summary = run_with_standby(
+        [&clock, &clock],
+        grid,
+        None,
+        &mut monitor,
+        &mut counts,
+        || (),
+        |counts, _, runner| {
+            COUNTING.with(|c| c.set(true));
+            let now = ALLOCATIONS.with(Cell::get);
+            let slot = &mut counts[usize::from(runner == Runner::Standby)];
+            *slot = Some(slot.map_or((now, now), |(first, _)| (first, now)));
+            ControlFlow::Continue(())
+        },
+    );
+    COUNTING.with(|c| c.set(false));
+    assert_eq!(summary.ticks + summary.skipped_periods, 2_000);
+    assert_eq!(monitor.ticks(), summary.ticks);
+    let [on_loop, on_standby] = counts.map(|c| c.map(|(first, last)| last - first));
+    assert_eq!(on_loop, Some(0), "the loop's thread ran ticks without allocating");
+    assert!(on_standby.is_none_or(|n| n == 0), "the standby's ticks allocated {on_standby:?} times");
+    eprintln!("standby ran {} of {} ticks", summary.by_standby, summary.ticks);
+}

@@ -49,6 +49,31 @@ fn default_scene_with(path: &Path, line: &str) -> std::path::PathBuf {
     path.to_path_buf()
 }
 
+/// Every node frame `nodes` receives until the core exits, as (sequence, tick).
+fn frames_until_exit(core_proc: &mut std::process::Child, nodes: &lamina_bridge::NodesSubscriber) -> Vec<(u64, u64)> {
+    let mut frames = Vec::new();
+    let watchdog = std::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let exited = core_proc.try_wait().expect("core status").is_some();
+        while let Some(f) = nodes.receive_timeout(Duration::from_millis(5)).expect("receive") {
+            frames.push((f.header().sequence, f.header().tick));
+        }
+        if exited {
+            return frames;
+        }
+        assert!(std::time::Instant::now() < watchdog, "lamina run did not end");
+    }
+}
+
+/// The standard output of a core that exited, which it must have done successfully.
+fn stdout_of_success(core_proc: &mut std::process::Child) -> String {
+    let status = wait_with_watchdog(core_proc, Duration::from_secs(10), "lamina run");
+    assert!(status.success(), "the core exited with {status}");
+    let mut core_stdout = String::new();
+    std::io::Read::read_to_string(&mut core_proc.stdout.take().unwrap(), &mut core_stdout).unwrap();
+    core_stdout
+}
+
 /// The two scenarios run one after the other: each loads both CPUs of a small machine.
 static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
@@ -210,22 +235,8 @@ fn node_frames_every_fifth_tick_go_out_on_it_or_the_next_tick_on_time_works() {
     let mut cmd = core(&prefix, 2.0, Some(&ticks));
     cmd.arg("--scene").arg(&scene);
     let mut core_proc = cmd.spawn().expect("starting lamina run");
-    let mut frames = Vec::new();
-    let watchdog = std::time::Instant::now() + Duration::from_secs(60);
-    loop {
-        let exited = core_proc.try_wait().expect("core status").is_some();
-        while let Some(f) = nodes.receive_timeout(Duration::from_millis(5)).expect("receive") {
-            frames.push((f.header().sequence, f.header().tick));
-        }
-        if exited {
-            break;
-        }
-        assert!(std::time::Instant::now() < watchdog, "lamina run did not end");
-    }
-    let status = wait_with_watchdog(&mut core_proc, Duration::from_secs(10), "lamina run");
-    assert!(status.success(), "the core exited with {status}");
-    let mut core_stdout = String::new();
-    std::io::Read::read_to_string(&mut core_proc.stdout.take().unwrap(), &mut core_stdout).unwrap();
+    let frames = frames_until_exit(&mut core_proc, &nodes);
+    let core_stdout = stdout_of_success(&mut core_proc);
 
     // A frame falls due on every tick that is a multiple of 5. The core writes it on that
     // tick, or, when the tick has already used more than the cutoff (on a loaded machine),
@@ -288,5 +299,68 @@ fn a_cutoff_below_every_step_sheds_every_node_frame_works() {
     assert_eq!(counts["cutoff_us"].as_f64(), Some(1.0), "{counts}");
     assert_eq!(counts["shed"], report["ticks"], "every tick's frame shed: {counts}");
     assert_eq!(counts["deferred"].as_u64(), Some(0), "{counts}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A core with `[realtime] standby_cpu = 0` while this test holds the loop's CPU (the last)
+/// at SCHED_FIFO 99 for 5 ms in every 50, as a host that stops the loop's virtual CPU: the
+/// standby runs the ticks the loop's thread cannot start, publishing from its own thread, and
+/// the subscriber receives the frames in order, one per tick, from both.
+#[test]
+fn a_standby_runs_and_publishes_the_ticks_of_a_stalled_loop_works() {
+    use lamina_bridge::{Bridge, BridgeConfig, NodesSubscriber};
+    use lamina_rt::{RealtimeRequest, RealtimeSetup};
+    let cpus = lamina_rt::available_cpus();
+    let Some(&loop_cpu) = cpus.last().filter(|&&c| c != 0) else {
+        eprintln!("SKIP: a standby on CPU 0 needs the loop on another CPU ({cpus:?})");
+        return;
+    };
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch_dir("mp_standby");
+    let prefix = unique_prefix("standby");
+    let scene = default_scene_with(&dir.join("standby.toml"), "standby_cpu = 0");
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
+    let nodes = NodesSubscriber::create(&bridge).expect("node subscriber");
+    let mut cmd = core(&prefix, 3.0, None);
+    cmd.arg("--scene").arg(&scene);
+    let mut core_proc = cmd.spawn().expect("starting lamina run");
+
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let hog_done = done.clone();
+    let hog = std::thread::spawn(move || {
+        let setup = RealtimeSetup::apply(&RealtimeRequest::new().pin_to(loop_cpu).fifo_priority(99));
+        let spin = |d: Duration| {
+            let end = std::time::Instant::now() + d;
+            while std::time::Instant::now() < end {}
+        };
+        while !hog_done.load(std::sync::atomic::Ordering::Relaxed) {
+            if setup.all_granted() {
+                spin(Duration::from_millis(5));
+            }
+            std::thread::sleep(Duration::from_millis(45));
+        }
+        setup.all_granted()
+    });
+    let frames = frames_until_exit(&mut core_proc, &nodes);
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    let stalled = hog.join().expect("the stalling thread");
+    let core_stdout = stdout_of_success(&mut core_proc);
+    let by_standby: u64 = core_stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("standby on CPU 0: ran ").and_then(|r| r.split(' ').next()))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("the core reports the standby's ticks: {core_stdout}"));
+    if stalled {
+        // About 60 stalls of 5 ms in 3 s, each leaving 4 or 5 ticks to the standby.
+        assert!(by_standby >= 20, "the standby ran {by_standby} ticks");
+    } else {
+        eprintln!("SKIP the stall: SCHED_FIFO 99 on CPU {loop_cpu} refused (the standby ran {by_standby} ticks)");
+    }
+    let published = published_frames(&core_stdout);
+    assert!(published > 2_000, "{published} frames in 3 s");
+    assert!(frames.len() as u64 * 2 > published, "{} of {published} frames received", frames.len());
+    for w in frames.windows(2) {
+        assert!(w[1].0 > w[0].0 && w[1].1 > w[0].1, "frames in order, one per tick: {w:?}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -15,7 +15,7 @@ mod visual_section;
 
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
-pub use realtime_section::{OverrunChoice, RealtimeSettings};
+pub use realtime_section::{OverrunChoice, RealtimeSettings, STANDBY_DELAY_US};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::SceneSprings;

@@ -17,6 +17,10 @@ pub enum OverrunChoice {
 pub struct RealtimeSettings {
     /// CPU to pin the loop to. Default: the last CPU.
     pub cpu: Option<usize>,
+    /// CPU of a standby thread that runs a tick the loop's thread has not started
+    /// [`STANDBY_DELAY_US`] after its deadline (as when the host has stopped the loop's virtual
+    /// CPU); it must differ from the loop's. Default `None`: no standby.
+    pub standby_cpu: Option<usize>,
     /// SCHED_FIFO priority (1–99). Default 80; `None` in the file as `0`.
     pub fifo_priority: Option<i32>,
     /// `mlockall` the process. Default true.
@@ -52,6 +56,11 @@ impl RealtimeSettings {
 /// Default [`RealtimeSettings::sleep_slice_us`], µs.
 const DEFAULT_SLEEP_SLICE_US: u32 = 100;
 
+/// How long after a tick's deadline the standby ([`RealtimeSettings::standby_cpu`]) takes a
+/// tick the loop's thread has not started, µs: past the few µs of a wake-up on time, well
+/// inside the 500 µs node-frame cutoff.
+pub const STANDBY_DELAY_US: u32 = 250;
+
 /// Largest [`RealtimeSettings::sleep_slice_us`], µs (one second).
 const MAX_SLEEP_SLICE_US: u32 = 1_000_000;
 
@@ -62,6 +71,7 @@ const MAX_NODE_FRAME_EVERY: u32 = 1_000_000;
 #[serde(deny_unknown_fields)]
 pub(super) struct RawRealtime {
     cpu: Option<usize>,
+    standby_cpu: Option<usize>,
     fifo_priority: Option<i32>,
     lock_memory: Option<bool>,
     budget_us: Option<f64>,
@@ -98,8 +108,12 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
     if r.node_frame_cutoff_us.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
         return Err(FieldError::new("realtime.node_frame_cutoff_us", "must be finite and positive"));
     }
+    if r.standby_cpu.is_some() && r.standby_cpu == r.cpu {
+        return Err(FieldError::new("realtime.standby_cpu", "must differ from realtime.cpu (the loop's)"));
+    }
     Ok(RealtimeSettings {
         cpu: r.cpu,
+        standby_cpu: r.standby_cpu,
         fifo_priority,
         lock_memory: r.lock_memory.unwrap_or(true),
         budget_us: r.budget_us,
@@ -125,6 +139,7 @@ mod tests {
             d,
             RealtimeSettings {
                 cpu: None,
+                standby_cpu: None,
                 fifo_priority: Some(80),
                 lock_memory: true,
                 budget_us: None,
@@ -135,9 +150,9 @@ mod tests {
             }
         );
         assert_eq!(d.node_frame_cutoff_us(1_000.0), 500.0, "half the period");
-        let r = parse("cpu = 1\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\nnode_frame_every = 16\nnode_frame_cutoff_us = 300.0\n")
+        let r = parse("cpu = 1\nstandby_cpu = 0\nfifo_priority = 0\nlock_memory = false\nbudget_us = 800.0\noverrun = \"catch_up\"\nsleep_slice_us = 0\nnode_frame_every = 16\nnode_frame_cutoff_us = 300.0\n")
             .unwrap();
-        assert_eq!((r.cpu, r.fifo_priority, r.lock_memory), (Some(1), None, false));
+        assert_eq!((r.cpu, r.standby_cpu, r.fifo_priority, r.lock_memory), (Some(1), Some(0), None, false));
         assert_eq!((r.budget_us, r.overrun, r.sleep_slice_us), (Some(800.0), OverrunChoice::CatchUp, 0));
         assert_eq!((r.node_frame_every, r.node_frame_cutoff_us(1_000.0)), (16, 300.0));
         let budget = parse("budget_us = 800.0\n").unwrap();
@@ -148,6 +163,7 @@ mod tests {
     fn realtime_section_bad_values_name_the_field_fails() {
         for (body, field) in [
             ("overrun = \"panic\"\n", "realtime.overrun"),
+            ("cpu = 1\nstandby_cpu = 1\n", "realtime.standby_cpu"),
             ("budget_us = 0.0\n", "realtime.budget_us"),
             ("fifo_priority = 100\n", "realtime.fifo_priority"),
             ("sleep_slice_us = 5\n", "realtime.sleep_slice_us"),
