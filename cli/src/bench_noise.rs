@@ -222,8 +222,10 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                     standby_request.lock_memory = false;
                     standby_request.fifo_priority = request.fifo_priority.map(|p| (p - 1).max(1));
                     let mut state = (&mut work, &mut sink);
+                    // One sleep per wait for the standby, as `lamina run`'s.
+                    let standby_clock = clock.with_sleep_slice_ns(0);
                     let summary = run_with_standby(
-                        [&clock, &clock],
+                        [&clock, &standby_clock],
                         grid,
                         None,
                         &mut monitor,

@@ -7,7 +7,7 @@ use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, STANDBY_DELAY_US, Scene};
 use lamina_core::solver::{LateBuild, Simulation};
-use lamina_rt::standby::{Grid, StandbySummary, run_with_standby};
+use lamina_rt::standby::{Grid, run_with_standby};
 use lamina_rt::steal::StealSnapshot;
 use lamina_rt::{
     Clock, DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RealtimeRequest,
@@ -79,6 +79,12 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     check_options(opts)?;
     let scene = &loaded.scene;
     let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
+    if let Some(cpu) = scene.realtime.standby_cpu.filter(|&c| Some(c) == loop_cpu(scene)) {
+        return Err(format!(
+            "{}: realtime.standby_cpu = {cpu} is the loop's CPU (realtime.cpu, by default the last CPU): give the standby another",
+            scene_name()
+        ));
+    }
     let model = scene.build_model().map_err(|e| e.to_string())?;
     let (mut sim, mut hand_tool) =
         build_simulation::<T>(scene, &model).map_err(|e| format!("{}: {e}", scene_name()))?;
@@ -169,8 +175,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let mut steal_before = steal_at_start.clone();
     let cpu = loop_cpu(scene);
     let mut out = std::io::stdout().lock();
-    let standby = scene.realtime.standby_cpu.map(|cpu| Standby::start(scene, cpu, lp.period_ns()));
-    let mut standby_ticks = 0u64;
+    let mut standby = scene.realtime.standby_cpu.map(|cpu| Standby::new(scene, cpu, lp.period_ns()));
     while elapsed_ns < total_ns {
         let chunk = (total_ns - elapsed_ns).min(1_000_000_000);
         let clock = loop_clock;
@@ -181,16 +186,12 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             frame_gate: &mut frame_gate,
             stopped_after: &mut stopped_after,
         };
-        let stop = match &standby {
+        let stop = match standby.as_mut() {
             None => {
                 let limit = RunLimit::duration_ns(chunk).and_stop_flag(&STOP);
                 lp.run(limit, &mut monitor, |info| state.tick(info, &clock, &probe)).stop
             }
-            Some(standby) => {
-                let run = standby.run(chunk, &clock, &mut monitor, &mut state, &probe);
-                standby_ticks += run.by_standby;
-                run.stop
-            }
+            Some(standby) => standby.run(chunk, &clock, &mut monitor, &mut state, &probe),
         };
         elapsed_ns += chunk;
         second += 1;
@@ -236,11 +237,13 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     let _ = lp.clock().now();
     drop(out);
     println!("\n{monitor}");
-    if let Some(cpu) = scene.realtime.standby_cpu {
+    if let (Some(cpu), Some(s)) = (scene.realtime.standby_cpu, &standby) {
         println!(
-            "standby on CPU {cpu}: ran {standby_ticks} ticks the loop's thread had not started {STANDBY_DELAY_US} µs after their deadline"
+            "standby on CPU {cpu}: ran {} ticks the loop's thread had not started {STANDBY_DELAY_US} µs after their deadline",
+            s.ticks_run
         );
     }
+
     if let Some(hint) = machine_misses_hint(&monitor.summary()) {
         println!("{hint}");
     }
@@ -259,6 +262,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
         &context
             .with_steal(steal.as_ref(), cpu)
             .with_multirate(sim.multirate_status())
+            .with_standby(scene.realtime.standby_cpu.zip(standby.as_ref().map(|s| s.ticks_run)))
             .with_node_frames(publisher.as_ref().map(|p| (p.sequence, &frame_gate))),
     )?;
     if let Some(Err(e)) = recorded {
@@ -330,40 +334,42 @@ impl<T: Real> TickState<'_, T> {
     }
 }
 
-/// The standby of `[realtime] standby_cpu`: where the next chunk of the grid starts, and how
-/// its thread is set up.
+/// The standby of `[realtime] standby_cpu`: how its thread is set up, where the next chunk
+/// of the grid starts, and the ticks it ran.
 struct Standby {
     request: RealtimeRequest,
     period_ns: u64,
-    next_origin_ns: std::cell::Cell<u64>,
-    next_tick: std::cell::Cell<u64>,
+    next_origin_ns: u64,
+    next_tick: u64,
+    ticks_run: u64,
 }
 
 impl Standby {
     /// A standby on `cpu`, one SCHED_FIFO priority below the loop's, its grid starting one
     /// period from now.
-    fn start(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
+    fn new(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
         let mut request = RealtimeRequest::new().pin_to(cpu);
         if let Some(p) = scene.realtime.fifo_priority {
             request = request.fifo_priority((p - 1).max(1));
         }
-        let origin = MonotonicClock::new().now() + period_ns;
-        Self { request, period_ns, next_origin_ns: std::cell::Cell::new(origin), next_tick: std::cell::Cell::new(0) }
+        let next_origin_ns = MonotonicClock::new().now() + period_ns;
+        Self { request, period_ns, next_origin_ns, next_tick: 0, ticks_run: 0 }
     }
 
-    /// Runs the next `chunk_ns` of the grid with the standby beside the loop's thread.
+    /// Runs the next `chunk_ns` of the grid with the standby beside the loop's thread; why it
+    /// stopped.
     fn run<T: Real>(
-        &self,
+        &mut self,
         chunk_ns: u64,
         clock: &MonotonicClock,
         monitor: &mut DeadlineMonitor,
         state: &mut TickState<'_, T>,
         probe: &SendProbe,
-    ) -> StandbySummary<()> {
+    ) -> StopReason {
         let slots = chunk_ns.div_ceil(self.period_ns);
         let grid = Grid {
-            origin_ns: self.next_origin_ns.get(),
-            first_tick: self.next_tick.get(),
+            origin_ns: self.next_origin_ns,
+            first_tick: self.next_tick,
             period_ns: self.period_ns,
             slots,
             standby_delay_ns: u64::from(STANDBY_DELAY_US) * 1_000,
@@ -382,9 +388,10 @@ impl Standby {
         let run = run_with_standby(clocks, grid, Some(&STOP), monitor, state, setup, |state, info, _| {
             state.tick(info, clock, probe)
         });
-        self.next_origin_ns.set(grid.origin_ns + slots * self.period_ns);
-        self.next_tick.set(grid.first_tick + run.ticks);
-        run
+        self.next_origin_ns = grid.origin_ns + slots * self.period_ns;
+        self.next_tick = grid.first_tick + run.ticks;
+        self.ticks_run += run.by_standby;
+        run.stop
     }
 }
 

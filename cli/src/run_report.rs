@@ -126,6 +126,17 @@ impl RunContext {
         self
     }
 
+    /// Adds the standby's CPU and the ticks it ran (`standby`), `null` without one.
+    pub fn with_standby(mut self, standby: Option<(usize, u64)>) -> Self {
+        let value = standby.map_or(serde_json::Value::Null, |(cpu, ticks)| {
+            serde_json::json!({ "cpu": cpu, "ticks": ticks, "delay_us": lamina_core::scene::STANDBY_DELAY_US })
+        });
+        if let Some(fields) = self.fields.as_object_mut() {
+            fields.insert("standby".into(), value);
+        }
+        self
+    }
+
     /// Adds the node frames' counts (`node_frames`) from the frames `published` and the
     /// gate that chose their ticks; `null` without publishing.
     pub fn with_node_frames(mut self, frames: Option<(u64, &NodeFrameGate)>) -> Self {

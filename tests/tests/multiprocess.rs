@@ -321,7 +321,8 @@ fn a_standby_runs_and_publishes_the_ticks_of_a_stalled_loop_works() {
     let scene = default_scene_with(&dir.join("standby.toml"), "standby_cpu = 0");
     let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).expect("bridge");
     let nodes = NodesSubscriber::create(&bridge).expect("node subscriber");
-    let mut cmd = core(&prefix, 3.0, None);
+    let ticks = dir.join("ticks.csv");
+    let mut cmd = core(&prefix, 3.0, Some(&ticks));
     cmd.arg("--scene").arg(&scene);
     let mut core_proc = cmd.spawn().expect("starting lamina run");
 
@@ -350,6 +351,8 @@ fn a_standby_runs_and_publishes_the_ticks_of_a_stalled_loop_works() {
         .find_map(|l| l.strip_prefix("standby on CPU 0: ran ").and_then(|r| r.split(' ').next()))
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("the core reports the standby's ticks: {core_stdout}"));
+    let standby = &read_json(&ticks.with_extension("json"))["standby"];
+    assert_eq!((standby["cpu"].as_u64(), standby["ticks"].as_u64()), (Some(0), Some(by_standby)), "{standby}");
     if stalled {
         // About 60 stalls of 5 ms in 3 s, each leaving 4 or 5 ticks to the standby.
         assert!(by_standby >= 20, "the standby ran {by_standby} ticks");
@@ -362,5 +365,23 @@ fn a_standby_runs_and_publishes_the_ticks_of_a_stalled_loop_works() {
     for w in frames.windows(2) {
         assert!(w[1].0 > w[0].0 && w[1].1 > w[0].1, "frames in order, one per tick: {w:?}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A standby on the loop's own CPU (the last, by default) could take no tick the host keeps
+/// from the loop: `lamina run` refuses it, naming the key.
+#[test]
+fn a_standby_on_the_loops_cpu_is_refused_fails() {
+    let Some(&last) = lamina_rt::available_cpus().last() else { return };
+    let dir = scratch_dir("mp_standby_clash");
+    let scene = default_scene_with(&dir.join("clash.toml"), &format!("standby_cpu = {last}"));
+    let out = Command::new(workspace_bin("lamina"))
+        .args(["run", "--quiet", "--no-publish", "--seconds", "1", "--scene"])
+        .arg(&scene)
+        .output()
+        .expect("lamina run");
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "refused");
+    assert!(text.contains("clash.toml") && text.contains(&format!("realtime.standby_cpu = {last}")), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
