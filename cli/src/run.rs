@@ -243,7 +243,6 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             s.ticks_run
         );
     }
-
     if let Some(hint) = machine_misses_hint(&monitor.summary()) {
         println!("{hint}");
     }
@@ -395,7 +394,6 @@ impl Standby {
     }
 }
 
-/// Refuses run lengths and tick rings outside their bounds, naming the option and value.
 /// Ticks stepped before the timed loop: at least 10. With multirate stepping at `ratio`, the
 /// warm-up ends on the tick after an exchange, so the timed loop's first exchange is a whole
 /// bulk step of real time later. (Warm-up ticks run back to back: the timed loop's first
@@ -407,6 +405,7 @@ fn warm_up_ticks(multirate_ratio: Option<u32>) -> u32 {
     }
 }
 
+/// Refuses run lengths and tick rings outside their bounds, naming the option and value.
 fn check_options(opts: &RunOptions) -> Result<(), String> {
     if let Some(s) = opts.seconds
         && !(s.is_finite() && s > 0.0 && s <= 1e9)

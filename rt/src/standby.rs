@@ -247,11 +247,14 @@ fn run_side<C, O, S, F>(
         let wake_ns = clock.now();
         // A whole period late or more: run the slot now due, drop the ones between.
         let due = if wake_ns >= deadline(slot + 1) { (wake_ns - grid.origin_ns) / grid.period_ns } else { slot };
+        let shared = guard.value();
         if due >= grid.slots {
+            // Past the grid's end: its last slots are dropped, as a skip that ends a run.
+            shared.skipped += grid.slots - slot;
+            shared.observer.on_skip(grid.slots - slot);
             guard.set_next_slot(grid.slots);
             return;
         }
-        let shared = guard.value();
         let skipped_before = due - slot;
         if skipped_before > 0 {
             shared.skipped += skipped_before;
