@@ -217,10 +217,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                         slots: window_ns.div_ceil(period_ns),
                         standby_delay_ns: u64::from(s.delay_us) * 1_000,
                     };
-                    let mut standby_request = request;
-                    standby_request.cpu = Some(s.cpu);
-                    standby_request.lock_memory = false;
-                    standby_request.fifo_priority = request.fifo_priority.map(|p| (p - 1).max(1));
+                    let standby_request = request.for_standby_on(s.cpu);
                     let mut state = (&mut work, &mut sink);
                     // One sleep per wait for the standby, as `lamina run`'s.
                     let standby_clock = clock.with_sleep_slice_ns(0);

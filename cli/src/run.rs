@@ -347,10 +347,7 @@ impl Standby {
     /// A standby on `cpu`, one SCHED_FIFO priority below the loop's, its grid starting one
     /// period from now.
     fn new(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
-        let mut request = RealtimeRequest::new().pin_to(cpu);
-        if let Some(p) = scene.realtime.fifo_priority {
-            request = request.fifo_priority((p - 1).max(1));
-        }
+        let request = loop_request(scene).for_standby_on(cpu);
         let next_origin_ns = MonotonicClock::new().now() + period_ns;
         Self { request, period_ns, next_origin_ns, next_tick: 0, ticks_run: 0 }
     }
@@ -546,17 +543,21 @@ fn steal_line(steal: &StealSnapshot, loop_cpu: Option<usize>) -> String {
 
 /// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what
 /// was granted and refused.
-fn apply_realtime_setup(scene: &Scene) {
-    let cpu = loop_cpu(scene);
+/// What the scene's `[realtime]` table asks for the loop's thread.
+fn loop_request(scene: &Scene) -> RealtimeRequest {
     let mut request = RealtimeRequest::new();
-    request.cpu = cpu;
+    request.cpu = loop_cpu(scene);
     if let Some(p) = scene.realtime.fifo_priority {
         request = request.fifo_priority(p);
     }
     if scene.realtime.lock_memory {
         request = request.lock_memory();
     }
-    let setup = RealtimeSetup::apply(&request);
+    request
+}
+
+fn apply_realtime_setup(scene: &Scene) {
+    let setup = RealtimeSetup::apply(&loop_request(scene));
     print!("{setup}");
     if let Some(standby) = scene.realtime.standby_cpu {
         println!(

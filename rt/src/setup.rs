@@ -208,6 +208,14 @@ impl RealtimeRequest {
         self.lock_memory = true;
         self
     }
+
+    /// The request for a standby thread ([`crate::standby`]) beside a loop set up by this
+    /// one: pinned to `cpu`, at `SCHED_FIFO` one below the loop's priority (at least 1; none
+    /// if the loop has none), memory left alone (`mlockall` already holds the process).
+    #[must_use]
+    pub fn for_standby_on(self, cpu: usize) -> Self {
+        Self { cpu: Some(cpu), fifo_priority: self.fifo_priority.map(|p| (p - 1).max(1)), lock_memory: false }
+    }
 }
 
 /// The outcome of one request.

@@ -63,3 +63,11 @@ fn setup_fifo_priority_out_of_range_fails() {
         assert!(matches!(err, FifoPrioritySetError::OutOfRange { .. }), "{err}");
     }
 }
+
+#[test]
+fn standby_request_sits_one_below_the_loop_on_its_own_cpu_works() {
+    let standby = RealtimeRequest::new().pin_to(1).fifo_priority(80).lock_memory().for_standby_on(0);
+    assert_eq!((standby.cpu, standby.fifo_priority, standby.lock_memory), (Some(0), Some(79), false));
+    assert_eq!(RealtimeRequest::new().fifo_priority(1).for_standby_on(0).fifo_priority, Some(1), "at least 1");
+    assert_eq!(RealtimeRequest::new().for_standby_on(3).fifo_priority, None, "no priority asked, none given");
+}

@@ -3,8 +3,9 @@
 //! the tissue and a cut shows the anatomy inside.
 //!
 //! Two sources:
-//! - a user's volume, a NIfTI-1 file ([`read_nifti`]) or a NRRD file ([`read_nrrd`](crate::nrrd::read_nrrd)),
-//!   told apart by its name ([`read_volume`](crate::volume_file::read_volume)): its voxels as grey levels through an intensity
+//! - a user's volume, a NIfTI-1 file ([`read_nifti`]) or a NRRD file
+//!   ([`read_nrrd`](crate::nrrd::read_nrrd)), told apart by its name
+//!   ([`read_volume`](crate::volume_file::read_volume)): its voxels as grey levels through an intensity
 //!   window (or as colours, for an RGB volume such as a cryosection series), placed in the
 //!   model frame by the origin and spacing of its header (or the scene's `origin_m`);
 //! - otherwise a procedural one ([`bake_procedural`]), baked on the CPU when the first frame
