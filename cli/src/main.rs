@@ -3,6 +3,7 @@
 mod bench_capacity;
 mod bench_effects;
 mod bench_noise;
+mod bench_stalls;
 mod bench_yardstick;
 mod demo;
 mod demo_script;
@@ -343,6 +344,30 @@ enum BenchCommand {
         #[arg(long, default_value_t = 250)]
         standby_delay_us: u32,
     },
+    /// The machine's stops: one thread per CPU, pinned and at SCHED_FIFO, reads the clock for
+    /// 9 ms of every 10 ms; readings further apart than --gap-us are a stop (the host taking
+    /// the virtual CPU, an interrupt, the kernel's work). Prints each CPU's stops, the stops
+    /// of every CPU at once (which no standby thread can cover), and the deadlines a loop of
+    /// --rate-hz computing --work-us per tick misses through them. The watchers take nearly
+    /// every CPU for --seconds: run it on a machine doing nothing else.
+    Stalls {
+        /// Seconds watched.
+        #[arg(long, default_value_t = 30.0)]
+        seconds: f64,
+        /// Shortest stop counted, µs, 5 to 100,000.
+        #[arg(long, default_value_t = 100)]
+        gap_us: u64,
+        /// SCHED_FIFO priority of the watching threads (0 leaves them at the normal policy,
+        /// where the kernel's other threads add stops of their own).
+        #[arg(long, default_value_t = 80)]
+        fifo_priority: i32,
+        /// Rate of the loop whose misses are reckoned, Hz.
+        #[arg(long, default_value_t = 1000)]
+        rate_hz: u32,
+        /// Compute per tick of that loop, µs (`lamina run` prints its p50).
+        #[arg(long, default_value_t = 50.0)]
+        work_us: f64,
+    },
     /// The yardstick scene: ms per step and ns per spring-step, Lamina beside the scalar loop.
     Yardstick {
         /// Comma-separated: small, medium, large, or NXxNYxNZ.
@@ -496,6 +521,9 @@ fn run(command: Command) -> Result<(), String> {
             fifo_priority,
             standby: standby_cpu.map(|cpu| bench_noise::Standby { cpu, delay_us: standby_delay_us }),
         }),
+        Command::Bench { what: BenchCommand::Stalls { seconds, gap_us, fifo_priority, rate_hz, work_us } } => {
+            bench_stalls::bench(&bench_stalls::StallOptions { seconds, gap_us, fifo_priority, rate_hz, work_us })
+        }
         Command::Run {
             scene,
             seconds,

@@ -18,7 +18,8 @@
 //! 4. [`RealtimeSetup`] and [`install_stop_handler`]: the process-level setup,
 //!    each refusal reported, never a panic.
 //! 5. [`host`]: the machine and start time a run's report records; [`steal`]: the time a
-//!    hypervisor took from each CPU over a run; [`digest`]: the scene file's SHA-256.
+//!    hypervisor took from each CPU over a run; [`stalls`]: the stops of every CPU at once, which
+//!    no thread can cover; [`digest`]: the scene file's SHA-256.
 //!
 //! **Architecture invariant:** the per-tick path (loop + monitor recording)
 //! allocates nothing, takes no lock and does no I/O; `tests/no_alloc.rs`
@@ -52,6 +53,7 @@ pub mod monitor;
 pub mod ring;
 pub mod setup;
 pub mod signal;
+pub mod stalls;
 pub mod standby;
 pub mod steal;
 pub mod summary;
