@@ -243,7 +243,7 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             s.ticks_run
         );
     }
-    if let Some(hint) = machine_misses_hint(&monitor.summary()) {
+    if let Some(hint) = machine_misses_hint(&monitor.summary(), scene.realtime.standby_cpu) {
         println!("{hint}");
     }
     let steal = steal_at_start.zip(StealSnapshot::read().ok()).map(|(start, end)| end.since(&start));
@@ -506,15 +506,23 @@ fn print_setup<T: Real>(scene: &Scene, model: &Model, sim: &Simulation<T>) {
     }
 }
 
-/// After a run with misses, the command that measures how many the machine itself causes: the
-/// same loop with the run's median compute per tick and no physics.
-fn machine_misses_hint(summary: &lamina_rt::MonitorSummary) -> Option<String> {
-    (summary.misses > 0).then(|| {
+/// After a run with misses or skipped periods, the commands that measure how many the machine
+/// itself causes: the same loop with the run's median compute per tick and no physics (with
+/// the run's standby, if it had one), and, with a standby, the stops of every CPU at once,
+/// which no standby covers.
+fn machine_misses_hint(summary: &lamina_rt::MonitorSummary, standby_cpu: Option<usize>) -> Option<String> {
+    (summary.misses + summary.skipped_periods > 0).then(|| {
         let work_us = (summary.compute.p50_ns as f64 / 1e3).round().max(1.0);
         let seconds = (summary.ticks as f64 * summary.period_ns as f64 / 1e9).round().max(1.0);
-        format!(
-            "to see how many misses the machine causes to any loop of this length: lamina bench noise --work-us {work_us:.0} --seconds {seconds:.0} (docs/benchmarks.md)"
-        )
+        let noise = format!("lamina bench noise --work-us {work_us:.0} --seconds {seconds:.0}");
+        match standby_cpu {
+            None => format!(
+                "to see how many misses the machine causes to any loop of this length: {noise} (docs/benchmarks.md)"
+            ),
+            Some(cpu) => format!(
+                "to see how many misses the machine causes to any loop of this length: {noise} --standby-cpu {cpu}; and through stops of every CPU at once, which no standby covers: lamina bench stalls --work-us {work_us:.0} (docs/benchmarks.md)"
+            ),
+        }
     })
 }
 
@@ -766,8 +774,14 @@ mod tests {
             });
             monitor
         };
-        assert_eq!(machine_misses_hint(&monitor_of(None).summary()), None);
-        let hint = machine_misses_hint(&monitor_of(Some(400)).summary()).expect("a run with a miss");
+        assert_eq!(machine_misses_hint(&monitor_of(None).summary(), None), None);
+        let hint = machine_misses_hint(&monitor_of(Some(400)).summary(), None).expect("a run with a miss");
         assert!(hint.contains("lamina bench noise --work-us 200 --seconds 1 "), "{hint}");
+        assert!(!hint.contains("stalls"), "{hint}");
+        // The 1.5 ms tick also skips a slot (`Skip`); with a standby on CPU 0 the hint measures
+        // the loop with it, and the stops no standby covers.
+        let hint = machine_misses_hint(&monitor_of(Some(400)).summary(), Some(0)).expect("a run with a miss");
+        assert!(hint.contains("--seconds 1 --standby-cpu 0;"), "{hint}");
+        assert!(hint.contains("lamina bench stalls --work-us 200 "), "{hint}");
     }
 }
