@@ -216,6 +216,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                         period_ns,
                         slots: window_ns.div_ceil(period_ns),
                         standby_delay_ns: u64::from(s.delay_us) * 1_000,
+                        previous_wake_ns: None,
                     };
                     let standby_request = request.for_standby_on(s.cpu);
                     let mut state = (&mut work, &mut sink);

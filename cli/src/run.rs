@@ -334,12 +334,13 @@ impl<T: Real> TickState<'_, T> {
 }
 
 /// The standby of `[realtime] standby_cpu`: how its thread is set up, where the next chunk
-/// of the grid starts, and the ticks it ran.
+/// of the grid starts (and when its last tick woke), and the ticks it ran.
 struct Standby {
     request: RealtimeRequest,
     period_ns: u64,
     next_origin_ns: u64,
     next_tick: u64,
+    last_wake_ns: Option<u64>,
     ticks_run: u64,
 }
 
@@ -349,7 +350,7 @@ impl Standby {
     fn new(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
         let request = loop_request(scene).for_standby_on(cpu);
         let next_origin_ns = MonotonicClock::new().now() + period_ns;
-        Self { request, period_ns, next_origin_ns, next_tick: 0, ticks_run: 0 }
+        Self { request, period_ns, next_origin_ns, next_tick: 0, last_wake_ns: None, ticks_run: 0 }
     }
 
     /// Runs the next `chunk_ns` of the grid with the standby beside the loop's thread; why it
@@ -369,6 +370,7 @@ impl Standby {
             period_ns: self.period_ns,
             slots,
             standby_delay_ns: u64::from(STANDBY_DELAY_US) * 1_000,
+            previous_wake_ns: self.last_wake_ns,
         };
         let request = self.request;
         let setup = move || {
@@ -386,6 +388,7 @@ impl Standby {
         });
         self.next_origin_ns = grid.origin_ns + slots * self.period_ns;
         self.next_tick = grid.first_tick + run.ticks;
+        self.last_wake_ns = run.last_wake_ns;
         self.ticks_run += run.by_standby;
         run.stop
     }

@@ -17,7 +17,9 @@
 //!
 //! let clock = MonotonicClock::new();
 //! let origin_ns = clock.now() + 1_000_000;
-//! let grid = Grid { origin_ns, first_tick: 0, period_ns: 1_000_000, slots: 10, standby_delay_ns: 250_000 };
+//! let grid = Grid {
+//!     origin_ns, first_tick: 0, period_ns: 1_000_000, slots: 10, standby_delay_ns: 250_000, previous_wake_ns: None,
+//! };
 //! let mut slots_run = Vec::new();
 //! let summary = run_with_standby([&clock, &clock], grid, None, &mut (), &mut slots_run, || (), |run, info, _| {
 //!     run.push(info.slot);
@@ -117,6 +119,10 @@ pub struct Grid {
     pub slots: u64,
     /// How long after a slot's deadline the standby wakes to run it if it is still free, ns.
     pub standby_delay_ns: u64,
+    /// When the tick before this grid's first woke, ns, if this grid goes on from one that
+    /// ran ([`StandbySummary::last_wake_ns`]): the first tick's actual period is measured
+    /// from it. `None` for a first grid.
+    pub previous_wake_ns: Option<u64>,
 }
 
 /// Which thread ran a tick.
@@ -142,6 +148,9 @@ pub struct StandbySummary<R> {
     pub skipped_periods: u64,
     /// What the standby thread's setup returned (its pinning and priority, say).
     pub standby_setup: R,
+    /// When the last tick run woke, ns (else the grid's `previous_wake_ns`): the next grid's
+    /// `previous_wake_ns`.
+    pub last_wake_ns: Option<u64>,
 }
 
 /// What only the baton's holder touches.
@@ -190,8 +199,15 @@ where
     F: Fn(&mut S, TickInfo, Runner) -> ControlFlow<()> + Sync,
 {
     assert!(grid.period_ns > 0, "run_with_standby: a period of 0 ns");
-    let shared =
-        Shared { observer, state, ticks: 0, by_standby: 0, skipped: 0, prev_wake_ns: None, stop: StopReason::Duration };
+    let shared = Shared {
+        observer,
+        state,
+        ticks: 0,
+        by_standby: 0,
+        skipped: 0,
+        prev_wake_ns: grid.previous_wake_ns,
+        stop: StopReason::Duration,
+    };
     let baton = TickBaton::new(0, shared);
     let standby_setup = std::thread::scope(|scope| {
         let standby = scope.spawn(|| {
@@ -209,6 +225,7 @@ where
         by_standby: shared.by_standby,
         skipped_periods: shared.skipped,
         standby_setup,
+        last_wake_ns: shared.prev_wake_ns,
     }
 }
 
@@ -321,7 +338,7 @@ mod tests {
 
     fn grid(slots: u64, standby_delay_ns: u64) -> Grid {
         let origin_ns = MonotonicClock::new().now() + 2_000_000;
-        Grid { origin_ns, first_tick: 0, period_ns: 1_000_000, slots, standby_delay_ns }
+        Grid { origin_ns, first_tick: 0, period_ns: 1_000_000, slots, standby_delay_ns, previous_wake_ns: None }
     }
 
     /// Every tick as (slot, runner), the loop's thread stalled `stall_ns` at the `stalled` slots.
@@ -368,6 +385,47 @@ mod tests {
         assert!(ticks.iter().all(|t| t.1 == Runner::Loop));
         assert_eq!(summary.ticks + summary.skipped_periods, 30);
         assert!(ticks.windows(2).all(|w| w[0].0 < w[1].0), "{ticks:?}");
+    }
+
+    #[test]
+    fn a_grid_going_on_from_another_measures_its_first_ticks_period_works() {
+        /// Each tick's wake and actual period.
+        struct Wakes(Vec<(u64, Option<u64>)>);
+        impl TickObserver for Wakes {
+            fn on_tick(&mut self, sample: &TickSample) {
+                self.0.push((sample.info.wake_ns, sample.actual_period_ns));
+            }
+        }
+        let clock = MonotonicClock::new();
+        let mut wakes = Wakes(Vec::with_capacity(20));
+        let mut go = |grid: Grid| {
+            run_with_standby(
+                [&clock, &clock],
+                grid,
+                None,
+                &mut wakes,
+                &mut (),
+                || (),
+                |_, _, _| ControlFlow::Continue(()),
+            )
+        };
+        let first = grid(5, 250_000);
+        let a = go(first);
+        let second = Grid {
+            origin_ns: first.origin_ns + 5 * first.period_ns,
+            first_tick: a.ticks,
+            previous_wake_ns: a.last_wake_ns,
+            ..first
+        };
+        let b = go(second);
+        let wakes = wakes.0;
+        assert_eq!(wakes.len() as u64, a.ticks + b.ticks);
+        assert_eq!(wakes[0].1, None, "a first grid's first tick has no tick before it");
+        // Every later tick, the second grid's first included, is measured from the tick before.
+        for pair in wakes.windows(2) {
+            assert_eq!(pair[1].1, Some(pair[1].0 - pair[0].0), "{wakes:?}");
+        }
+        assert_eq!(b.last_wake_ns, wakes.last().map(|w| w.0));
     }
 
     #[test]

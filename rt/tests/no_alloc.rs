@@ -134,6 +134,7 @@ fn standby_ticks_allocate_nothing_on_either_thread_works() {
         period_ns: 1_000_000,
         slots: 2_000,
         standby_delay_ns: 0,
+        previous_wake_ns: None,
     };
     let config = MonitorConfig::for_period_ns(grid.period_ns).with_record_capacity(2_000);
     let mut monitor = DeadlineMonitor::try_new(config).unwrap();
