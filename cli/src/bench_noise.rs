@@ -188,9 +188,9 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
         opts.seconds
     );
     println!(
-        "\n| sleep slice | standby | ticks | misses | lateness p99 | lateness max | work p50 | work p99 | work max | slow ticks | slow bursts | longest burst | host steal on the CPU |"
+        "\n| sleep slice | standby | ticks | misses | lateness p99 | lateness max | work p50 | work p99 | work max | slow ticks | slow bursts | longest burst | host steal on the CPU | skipped periods |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &slice in &opts.sleep_slices_us {
         for standby in std::iter::once(None).chain(opts.standby.map(Some)) {
             let clock = MonotonicClock::new().with_sleep_slice_ns(u64::from(slice) * 1_000);
@@ -246,7 +246,7 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
             let bursts = slow_bursts(monitor.records().iter().map(|r| r.compute_ns), s.compute.p50_ns * SLOW_FACTOR);
             let us = |ns: u64| format!("{:.1} µs", ns as f64 / 1e3);
             println!(
-                "| {} | {standby_cell} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} ticks | {stolen} |",
+                "| {} | {standby_cell} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} ticks | {stolen} | {} |",
                 if slice == 0 { "one sleep".to_string() } else { format!("{slice} µs") },
                 s.ticks,
                 s.misses,
@@ -258,11 +258,12 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
                 bursts.slow_ticks,
                 bursts.count,
                 bursts.longest,
+                s.skipped_periods,
             );
         }
     }
     println!(
-        "\nmisses: ticks whose work ended after the budget (the period). Slow ticks are ones the machine slowed: the same work took {SLOW_FACTOR}x its median or more. Set a `lamina run` against these figures at the same compute per tick: misses it shares with this loop belong to the machine."
+        "\nmisses: ticks whose work ended after the budget (the period); skipped periods: slots no tick ran, every thread coming to them a period or more late. Slow ticks are ones the machine slowed: the same work took {SLOW_FACTOR}x its median or more. Set a `lamina run` against these figures at the same compute per tick: misses it shares with this loop belong to the machine."
     );
     Ok(())
 }

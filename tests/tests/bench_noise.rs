@@ -33,9 +33,11 @@ fn bench_noise_prints_one_row_per_sleep_slice_works() {
     for (k, row) in rows.iter().enumerate() {
         let n = |i: usize| row[i].parse::<u64>().unwrap_or_else(|_| panic!("column {i} of {row:?}"));
         // 0.2 s at 1 kHz: at most 200 ticks (fewer when a loaded machine skips periods).
-        let (ticks, misses, slow) = (n(3), n(4), n(10));
+        let (ticks, misses, slow, skipped) = (n(3), n(4), n(10), n(14));
         assert!((1..=200).contains(&ticks), "{row:?}");
         assert!(misses <= ticks && slow <= ticks, "{row:?}");
+        // Each of the 200 slots of 0.2 s either ran a tick or was skipped.
+        assert_eq!(ticks + skipped, 200, "{row:?}");
         if k % 2 == 0 {
             assert_eq!(row[2], "none", "{row:?}");
         } else {
