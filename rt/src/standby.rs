@@ -18,7 +18,12 @@
 //! let clock = MonotonicClock::new();
 //! let origin_ns = clock.now() + 1_000_000;
 //! let grid = Grid {
-//!     origin_ns, first_tick: 0, period_ns: 1_000_000, slots: 10, standby_delay_ns: 250_000, previous_wake_ns: None,
+//!     origin_ns,
+//!     first_tick: 0,
+//!     period_ns: 1_000_000,
+//!     slots: 10,
+//!     standby_delay_ns: 250_000,
+//!     previous_wake_ns: None,
 //! };
 //! let mut slots_run = Vec::new();
 //! let summary = run_with_standby([&clock, &clock], grid, None, &mut (), &mut slots_run, || (), |run, info, _| {
