@@ -207,9 +207,10 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
                 .map_or(String::new(), |m| format!(" | coupling gap {:.3} mm", m.coupling_gap_m * 1e3));
             let _ = writeln!(
                 out,
-                "[{second:>3} s] ticks {:>6} misses {:>4} | compute p50 {:>7.1} us p99 {:>7.1} us max {:>7.1} us | lateness p99 {:>7.1} us | host steal {stolen} | guard rollbacks {}{gap}",
+                "[{second:>3} s] ticks {:>6} misses {:>4} skipped {:>4} | compute p50 {:>7.1} us p99 {:>7.1} us max {:>7.1} us | lateness p99 {:>7.1} us | host steal {stolen} | guard rollbacks {}{gap}",
                 s.ticks,
                 s.misses,
+                s.skipped_periods,
                 s.compute.p50_ns as f64 / 1e3,
                 s.compute.p99_ns as f64 / 1e3,
                 s.compute.max_ns as f64 / 1e3,
