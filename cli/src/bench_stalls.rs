@@ -131,7 +131,6 @@ pub fn bench(opts: &StallOptions) -> Result<(), String> {
     let watched_ns = watches.iter().map(|w| w.watched_ns).min().unwrap_or(0);
     let compute_ns = (opts.work_us * 1e3) as u64;
     let per_minute = |misses: f64| if watched_ns == 0 { 0.0 } else { misses * 60e9 / watched_ns as f64 };
-
     println!(
         "\n| CPUs | stops | ≥ {} | ≥ {} | longest | total | loop misses per minute | host steal (/proc/stat) |",
         duration_label(LONG_STOPS_US[0]),
