@@ -93,7 +93,7 @@ pub fn watch<C: Clock>(clock: &C, plan: &WatchPlan, gaps: &mut Vec<Gap>) -> Watc
         let first = prev;
         while prev < end {
             let t = clock.now();
-            if t - prev > plan.threshold_ns {
+            if t.saturating_sub(prev) > plan.threshold_ns {
                 if gaps.len() < gaps.capacity() {
                     gaps.push(Gap { start_ns: prev, end_ns: t });
                 } else {
@@ -102,7 +102,7 @@ pub fn watch<C: Clock>(clock: &C, plan: &WatchPlan, gaps: &mut Vec<Gap>) -> Watc
             }
             prev = t;
         }
-        totals.watched_ns += prev - first;
+        totals.watched_ns += prev.saturating_sub(first);
     }
     totals
 }
