@@ -22,6 +22,12 @@ use std::time::{Duration, Instant};
 use super::demo_script::DemoScript;
 use super::demo_watch::{Peaks, Watch};
 
+/// How much longer than `--seconds` the core may run when the scripted device drives its
+/// tool, s. The core runs until the device's run is over, and the device's start comes after
+/// the core's: about 0.1 s on an idle machine, seconds on a loaded one. This bounds a device
+/// that never finishes.
+const DEVICE_START_ALLOWANCE_S: f64 = 30.0;
+
 /// The demo's device script at its nominal pace (device frame, metres, buttons); `lamina
 /// demo` plays it fitted to its run ([`DemoScript`]).
 pub const DEMO_TRAJECTORY: &str = include_str!("../../config/trajectories/demo_press_pull.csv");
@@ -126,15 +132,16 @@ fn terminate(child: &mut Child, name: &str) -> Result<ExitStatus, String> {
     }
 }
 
-/// Waits for `child`, or stops it when the demo is told to stop.
-fn finish(child: &mut Child, name: &str, stop_now: bool) -> Result<ExitStatus, String> {
-    if !stop_now && let Some(status) = wait_or_stop(child, name)? {
-        return Ok(status);
+/// Says which children the demo stops, and in what order, when a signal told it to stop.
+fn announce_stop() {
+    if let Some(signal) = lamina_rt::caught_stop_signal() {
+        println!("{}: stopping haptics, core and viewer, in that order", lamina_rt::signal_name(signal));
     }
-    terminate(child, name)
 }
 
-/// Runs the demo for `seconds`, writing frames and reports under `out`. Its children run in
+/// Runs the demo for `seconds`, writing frames and reports under `out`. With a scripted device
+/// the core runs until the device's run (`seconds` - 0.8 s from its own start) is over, so a
+/// device that starts late still plays its whole script on a running core. Its children run in
 /// their own process group, so Ctrl-C reaches the demo alone, which then stops the haptics
 /// process (its force goes to zero first), the core and the viewer, in that order, and prints
 /// every summary.
@@ -189,7 +196,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
 
     let report = out.join("core_report.json");
     let mut core = Command::new(std::env::current_exe().map_err(|e| e.to_string())?);
-    core.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &seconds.to_string(), "--report"]).arg(&report);
+    let core_seconds = if haptic_tool.is_some() { seconds + DEVICE_START_ALLOWANCE_S } else { seconds };
+    core.args(["run", "--quiet", "--prefix", &prefix, "--seconds", &core_seconds.to_string(), "--report"]).arg(&report);
     if let Some(s) = scene {
         core.arg("--scene").arg(s);
     }
@@ -204,14 +212,14 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         .spawn()
         .map_err(|e| format!("lamina run: {e}"))?;
 
-    // Haptics joins once the core is up (it renders zero force until the first feedback).
+    // Haptics waits for the core's model, then plays its script (it renders zero force until
+    // the first feedback).
     let haptics_report = out.join("haptics_report.json");
     let haptics_log = out.join("haptics.log");
     let mut haptics = match haptic_tool {
         Some(_) => {
             let trajectory = out.join("demo_press_pull.csv");
             std::fs::write(&trajectory, &script.csv).map_err(|e| format!("{}: {e}", trajectory.display()))?;
-            std::thread::sleep(std::time::Duration::from_millis(600));
             let mut h = Command::new(sibling("lamina-haptics")?);
             h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
                 .arg("--device")
@@ -262,18 +270,29 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         frames_dir.display(),
         if cleared > 0 { format!(", {cleared} earlier frames cleared") } else { String::new() }
     );
-    let core_done = wait_or_stop(&mut core, "lamina run")?;
-    if let Some(signal) = lamina_rt::caught_stop_signal() {
-        println!("{}: stopping haptics, core and viewer, in that order", lamina_rt::signal_name(signal));
-    }
-    let stopping = core_done.is_none();
-    let haptics_status = match haptics.as_mut() {
-        Some(h) => Some(finish(h, "lamina-haptics", stopping)?),
-        None => None,
-    };
-    let core_status = match core_done {
-        Some(status) => status,
-        None => terminate(&mut core, "lamina run")?,
+    // With a device, the core runs until the device's run is over; without, its own length.
+    let (haptics_status, core_status) = match haptics.as_mut() {
+        Some(h) => {
+            let device_done = wait_or_stop(h, "lamina-haptics")?;
+            announce_stop();
+            let haptics_status = match device_done {
+                Some(status) => status,
+                None => terminate(h, "lamina-haptics")?,
+            };
+            if device_done.is_some() {
+                println!("the scripted device's run is over: stopping the core");
+            }
+            (Some(haptics_status), terminate(&mut core, "lamina run")?)
+        }
+        None => {
+            let core_done = wait_or_stop(&mut core, "lamina run")?;
+            announce_stop();
+            let core_status = match core_done {
+                Some(status) => status,
+                None => terminate(&mut core, "lamina run")?,
+            };
+            (None, core_status)
+        }
     };
     // The viewer stops after its frame count or when told.
     terminate(&mut viewer, "lamina-viewer")?;

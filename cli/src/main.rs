@@ -126,7 +126,9 @@ enum Command {
         /// Scene; the built-in default when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
-        /// How long to run, s.
+        /// How long to run, s. With the scripted device, the device runs this less 0.8 s from
+        /// its own start and the core until the device is done (its start comes 0.1-1 s after
+        /// the core's, more on a loaded machine); the script is fitted to it.
         #[arg(long, default_value_t = 8.0)]
         seconds: f64,
         /// Output folder (frames, reports, logs).
