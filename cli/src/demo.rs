@@ -132,6 +132,32 @@ fn terminate(child: &mut Child, name: &str) -> Result<ExitStatus, String> {
     }
 }
 
+/// What ended the wait for the scripted device.
+enum DeviceWait {
+    /// The device's run is over (its exit status).
+    DeviceDone(ExitStatus),
+    /// The core exited first: a failure, or its run's cap reached (its exit status).
+    CoreDone(ExitStatus),
+    /// The demo was told to stop.
+    Stopped,
+}
+
+/// Waits until the haptics process exits, the core exits, or the demo is told to stop.
+fn wait_for_device(haptics: &mut Child, core: &mut Child) -> Result<DeviceWait, String> {
+    loop {
+        if let Some(status) = haptics.try_wait().map_err(|e| format!("lamina-haptics: {e}"))? {
+            return Ok(DeviceWait::DeviceDone(status));
+        }
+        if let Some(status) = core.try_wait().map_err(|e| format!("lamina run: {e}"))? {
+            return Ok(DeviceWait::CoreDone(status));
+        }
+        if STOP.load(Ordering::Relaxed) {
+            return Ok(DeviceWait::Stopped);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// Says which children the demo stops, and in what order, when a signal told it to stop.
 fn announce_stop() {
     if let Some(signal) = lamina_rt::caught_stop_signal() {
@@ -272,18 +298,17 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
     );
     // With a device, the core runs until the device's run is over; without, its own length.
     let (haptics_status, core_status) = match haptics.as_mut() {
-        Some(h) => {
-            let device_done = wait_or_stop(h, "lamina-haptics")?;
-            announce_stop();
-            let haptics_status = match device_done {
-                Some(status) => status,
-                None => terminate(h, "lamina-haptics")?,
-            };
-            if device_done.is_some() {
+        Some(h) => match wait_for_device(h, &mut core)? {
+            DeviceWait::DeviceDone(device) => {
                 println!("the scripted device's run is over: stopping the core");
+                (Some(device), terminate(&mut core, "lamina run")?)
             }
-            (Some(haptics_status), terminate(&mut core, "lamina run")?)
-        }
+            DeviceWait::CoreDone(core_status) => (Some(terminate(h, "lamina-haptics")?), core_status),
+            DeviceWait::Stopped => {
+                announce_stop();
+                (Some(terminate(h, "lamina-haptics")?), terminate(&mut core, "lamina run")?)
+            }
+        },
         None => {
             let core_done = wait_or_stop(&mut core, "lamina run")?;
             announce_stop();
