@@ -553,8 +553,6 @@ fn steal_line(steal: &StealSnapshot, loop_cpu: Option<usize>) -> String {
     format!("host steal over the run (time the hypervisor took, /proc/stat): {}{on}", per_cpu.join(", "))
 }
 
-/// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what
-/// was granted and refused.
 /// What the scene's `[realtime]` table asks for the loop's thread.
 fn loop_request(scene: &Scene) -> RealtimeRequest {
     let mut request = RealtimeRequest::new();
@@ -568,6 +566,8 @@ fn loop_request(scene: &Scene) -> RealtimeRequest {
     request
 }
 
+/// Pins the core, asks for SCHED_FIFO and locked memory as the scene says, and prints what
+/// was granted and refused.
 fn apply_realtime_setup(scene: &Scene) {
     let setup = RealtimeSetup::apply(&loop_request(scene));
     print!("{setup}");
