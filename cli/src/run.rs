@@ -334,14 +334,11 @@ impl<T: Real> TickState<'_, T> {
     }
 }
 
-/// The standby of `[realtime] standby_cpu`: how its thread is set up, where the next chunk
-/// of the grid starts (and when its last tick woke), and the ticks it ran.
+/// The standby of `[realtime] standby_cpu`: how its thread is set up, the grid the next
+/// chunk goes on with, and the ticks it ran.
 struct Standby {
     request: RealtimeRequest,
-    period_ns: u64,
-    next_origin_ns: u64,
-    next_tick: u64,
-    last_wake_ns: Option<u64>,
+    next: Grid,
     ticks_run: u64,
 }
 
@@ -350,8 +347,15 @@ impl Standby {
     /// period from now.
     fn new(scene: &Scene, cpu: usize, period_ns: u64) -> Self {
         let request = loop_request(scene).for_standby_on(cpu);
-        let next_origin_ns = MonotonicClock::new().now() + period_ns;
-        Self { request, period_ns, next_origin_ns, next_tick: 0, last_wake_ns: None, ticks_run: 0 }
+        let next = Grid {
+            origin_ns: MonotonicClock::new().now() + period_ns,
+            first_tick: 0,
+            period_ns,
+            slots: 0,
+            standby_delay_ns: u64::from(STANDBY_DELAY_US) * 1_000,
+            previous_wake_ns: None,
+        };
+        Self { request, next, ticks_run: 0 }
     }
 
     /// Runs the next `chunk_ns` of the grid with the standby beside the loop's thread; why it
@@ -364,15 +368,7 @@ impl Standby {
         state: &mut TickState<'_, T>,
         probe: &SendProbe,
     ) -> StopReason {
-        let slots = chunk_ns.div_ceil(self.period_ns);
-        let grid = Grid {
-            origin_ns: self.next_origin_ns,
-            first_tick: self.next_tick,
-            period_ns: self.period_ns,
-            slots,
-            standby_delay_ns: u64::from(STANDBY_DELAY_US) * 1_000,
-            previous_wake_ns: self.last_wake_ns,
-        };
+        let grid = Grid { slots: chunk_ns.div_ceil(self.next.period_ns), ..self.next };
         let request = self.request;
         let setup = move || {
             let setup = RealtimeSetup::apply(&request);
@@ -387,9 +383,7 @@ impl Standby {
         let run = run_with_standby(clocks, grid, Some(&STOP), monitor, state, setup, |state, info, _| {
             state.tick(info, clock, probe)
         });
-        self.next_origin_ns = grid.origin_ns + slots * self.period_ns;
-        self.next_tick = grid.first_tick + run.ticks;
-        self.last_wake_ns = run.last_wake_ns;
+        self.next = grid.following(&run);
         self.ticks_run += run.by_standby;
         run.stop
     }

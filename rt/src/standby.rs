@@ -125,9 +125,23 @@ pub struct Grid {
     /// How long after a slot's deadline the standby wakes to run it if it is still free, ns.
     pub standby_delay_ns: u64,
     /// When the tick before this grid's first woke, ns, if this grid goes on from one that
-    /// ran ([`StandbySummary::last_wake_ns`]): the first tick's actual period is measured
-    /// from it. `None` for a first grid.
+    /// ran ([`Grid::following`]): the first tick's actual period is measured from it. `None`
+    /// for a first grid.
     pub previous_wake_ns: Option<u64>,
+}
+
+impl Grid {
+    /// The grid that goes on from this one once `run` has run it: as long, starting where this
+    /// one ends, its ticks numbered on from `run`'s and its first tick's actual period measured
+    /// from `run`'s last wake-up.
+    pub fn following<R>(&self, run: &StandbySummary<R>) -> Grid {
+        Grid {
+            origin_ns: self.origin_ns.saturating_add(self.slots.saturating_mul(self.period_ns)),
+            first_tick: self.first_tick + run.ticks,
+            previous_wake_ns: run.last_wake_ns,
+            ..*self
+        }
+    }
 }
 
 /// Which thread ran a tick.
@@ -416,12 +430,8 @@ mod tests {
         };
         let first = grid(5, 250_000);
         let a = go(first);
-        let second = Grid {
-            origin_ns: first.origin_ns + 5 * first.period_ns,
-            first_tick: a.ticks,
-            previous_wake_ns: a.last_wake_ns,
-            ..first
-        };
+        let second = first.following(&a);
+        assert_eq!((second.origin_ns, second.first_tick), (first.origin_ns + 5 * first.period_ns, a.ticks));
         let b = go(second);
         let wakes = wakes.0;
         assert_eq!(wakes.len() as u64, a.ticks + b.ticks);
