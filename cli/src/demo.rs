@@ -99,11 +99,14 @@ fn frames_line(viewer_log: &str, frames_dir: &Path) -> String {
 /// summaries.
 static STOP: AtomicBool = AtomicBool::new(false);
 
-/// Waits for `child` to exit; `None` when the demo was told to stop first.
-fn wait_or_stop(child: &mut Child, name: &str) -> Result<Option<ExitStatus>, String> {
+/// Waits until one of `children` (each with its name, for errors) exits: its index and exit
+/// status; `None` when the demo was told to stop first.
+fn wait_for_first(children: &mut [(&mut Child, &str)]) -> Result<Option<(usize, ExitStatus)>, String> {
     loop {
-        if let Some(status) = child.try_wait().map_err(|e| format!("{name}: {e}"))? {
-            return Ok(Some(status));
+        for (i, (child, name)) in children.iter_mut().enumerate() {
+            if let Some(status) = child.try_wait().map_err(|e| format!("{name}: {e}"))? {
+                return Ok(Some((i, status)));
+            }
         }
         if STOP.load(Ordering::Relaxed) {
             return Ok(None);
@@ -144,18 +147,11 @@ enum DeviceWait {
 
 /// Waits until the haptics process exits, the core exits, or the demo is told to stop.
 fn wait_for_device(haptics: &mut Child, core: &mut Child) -> Result<DeviceWait, String> {
-    loop {
-        if let Some(status) = haptics.try_wait().map_err(|e| format!("lamina-haptics: {e}"))? {
-            return Ok(DeviceWait::DeviceDone(status));
-        }
-        if let Some(status) = core.try_wait().map_err(|e| format!("lamina run: {e}"))? {
-            return Ok(DeviceWait::CoreDone(status));
-        }
-        if STOP.load(Ordering::Relaxed) {
-            return Ok(DeviceWait::Stopped);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    Ok(match wait_for_first(&mut [(haptics, "lamina-haptics"), (core, "lamina run")])? {
+        Some((0, status)) => DeviceWait::DeviceDone(status),
+        Some((_, status)) => DeviceWait::CoreDone(status),
+        None => DeviceWait::Stopped,
+    })
 }
 
 /// Says which children the demo stops, and in what order, when a signal told it to stop.
@@ -310,7 +306,7 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
             }
         },
         None => {
-            let core_done = wait_or_stop(&mut core, "lamina run")?;
+            let core_done = wait_for_first(&mut [(&mut core, "lamina run")])?.map(|(_, status)| status);
             announce_stop();
             let core_status = match core_done {
                 Some(status) => status,
