@@ -114,7 +114,7 @@ pub fn bench(opts: &StallOptions) -> Result<(), String> {
             .collect();
         threads.into_iter().map(|t| t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
     });
-    let steal = StealSnapshot::read().ok().zip(steal_before).map(|(now, before)| now.since(&before));
+    let steal_after = StealSnapshot::read().ok();
     for w in &watches {
         if let Some(refused) = &w.setup_refused {
             eprint!(
@@ -151,7 +151,7 @@ pub fn bench(opts: &StallOptions) -> Result<(), String> {
         );
     };
     for w in &watches {
-        let stolen = steal.as_ref().and_then(|s| s.cpu(w.cpu)).map_or("n/a".into(), |c| format!("{} ms", c.stolen_ms));
+        let stolen = super::run::loop_steal_ms(steal_after.as_ref(), steal_before.as_ref(), Some(w.cpu));
         row(format!("CPU {}", w.cpu), &w.gaps, stolen);
     }
     if watches.len() > 1 {
