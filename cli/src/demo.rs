@@ -28,6 +28,10 @@ use super::demo_watch::{Peaks, Watch};
 /// that never finishes.
 const DEVICE_START_ALLOWANCE_S: f64 = 30.0;
 
+/// How long after the core the device starts: the viewer's first frames, drawn on a software
+/// rasteriser, then show the tool still clear of the skin.
+const VIEWER_HEAD_START: Duration = Duration::from_millis(600);
+
 /// The demo's device script at its nominal pace (device frame, metres, buttons); `lamina
 /// demo` plays it fitted to its run ([`DemoScript`]).
 pub const DEMO_TRAJECTORY: &str = include_str!("../../config/trajectories/demo_press_pull.csv");
@@ -242,6 +246,8 @@ pub fn demo(scene: Option<&Path>, seconds: f64, out: &Path, record: Option<&Path
         Some(_) => {
             let trajectory = out.join("demo_press_pull.csv");
             std::fs::write(&trajectory, &script.csv).map_err(|e| format!("{}: {e}", trajectory.display()))?;
+            // The viewer's first frames show the tool clear of the skin before the press.
+            std::thread::sleep(VIEWER_HEAD_START);
             let mut h = Command::new(sibling("lamina-haptics")?);
             h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000"])
                 .arg("--device")
