@@ -34,6 +34,9 @@ pub struct FitOptions {
     pub seed: u64,
     /// Most objective evaluations per annealing run (default 1500).
     pub max_evaluations: u32,
+    /// Evaluations of the indentation fit per scene (each one a virtual indentation); 0
+    /// skips it.
+    pub indentation_evaluations: u32,
     /// Output folder.
     pub out: PathBuf,
 }
@@ -347,6 +350,9 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
             }
         };
         println!("\n{} ({seconds:.1} s): {verdict}; its [model.springs] ({}):\n{toml}", path.display(), file.display());
+        if opts.indentation_evaluations > 0 {
+            fit_scene_indentation(path, &job.label, springs, opts)?;
+        }
     }
     let Some(model_grid) = opts.model_grid else {
         println!(
@@ -413,5 +419,102 @@ pub fn fit(opts: &FitOptions) -> Result<(), String> {
         opts.out.display(),
         xml.display()
     );
+    Ok(())
+}
+
+/// The indentation stage of a scene's fit: fat's and muscle's compression fitted to the in-vivo
+/// band by virtual indentation of the scene's own limb (`lamina_core::fit::indentation_fit`),
+/// printed, written as CSV (every evaluation, the force-depth curve), plotted beside the band,
+/// and the scene's `[model.springs]` with them written as springs_NAME_in_vivo.toml.
+fn fit_scene_indentation(path: &Path, label: &str, tensile: SceneSprings, opts: &FitOptions) -> Result<(), String> {
+    use lamina_core::fit::{AnnealSettings, INDENTATION_WEIGHTS, IndentationTargets, fit_indentation};
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let targets = IndentationTargets::shipped();
+    let settings = AnnealSettings {
+        seed: opts.seed,
+        max_evaluations: opts.indentation_evaluations as usize,
+        ..AnnealSettings::default()
+    };
+    let bar = super::progress::steps(u64::from(opts.indentation_evaluations), "indentation fit");
+    let start = Instant::now();
+    let fit = fit_indentation(&scene, tensile, &targets, &settings, |s| {
+        bar.set_message(format!("psi {:.3e}", s.psi));
+        bar.inc(1);
+    })
+    .map_err(|e| format!("{}: indentation fit: {e}", path.display()))?;
+    bar.finish_and_clear();
+    let safe = label.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
+    let band = &targets.band;
+    println!(
+        "indentation fit of {label} ({:.1} s, {} evaluations, weights outside band {} / stiffening {} / off centre {}): fat compression {:.1} x its tension stiffness, muscle {:.2} x, psi {:.3e}",
+        start.elapsed().as_secs_f64(),
+        fit.steps.len(),
+        INDENTATION_WEIGHTS.0,
+        INDENTATION_WEIGHTS.1,
+        INDENTATION_WEIGHTS.2,
+        fit.fat_compression_ratio,
+        fit.muscle_compression_ratio,
+        fit.psi
+    );
+    println!(
+        "{:<44} {:>12} {:>14} {:>10}",
+        "site",
+        format!("F {:.0} mm", band.depth_m * 1e3),
+        "secant 8/2 mm",
+        "verdict"
+    );
+    for (curve, check) in fit.curves.iter().zip(&fit.checks) {
+        match check {
+            Some(c) => {
+                let verdict = c.verdict();
+                println!("{:<44} {:>11.3}N {:>14.2} {verdict:>10}", curve.site, c.force_n, c.secant_ratio);
+            }
+            None => println!("{:<44} {:>12} {:>14} {:>10}", curve.site, "-", "-", "not reached"),
+        }
+    }
+    println!(
+        "band: {:.0}-{:.0} N at {:.0} mm, secant ratio >= {:.1} ({})",
+        band.force_min_n,
+        band.force_max_n,
+        band.depth_m * 1e3,
+        band.min_secant_ratio,
+        band.kind
+    );
+    let mut csv = String::from("evaluation,fat_compression_ratio,muscle_compression_ratio,psi,accepted\n");
+    for s in &fit.steps {
+        csv.push_str(&format!("{},{},{},{},{}\n", s.evaluation, s.params[0], s.params[1], s.psi, s.accepted));
+    }
+    let iterations = opts.out.join(format!("indentation_{safe}_iterations.csv"));
+    std::fs::write(&iterations, csv).map_err(|e| format!("{}: {e}", iterations.display()))?;
+    let mut curve = String::from("site,depth_m,force_n\n");
+    for c in &fit.curves {
+        for (d, f) in c.depth_m.iter().zip(&c.force_n) {
+            curve.push_str(&format!("{},{d},{f}\n", c.site));
+        }
+    }
+    let curve_csv = opts.out.join(format!("indentation_{safe}_curve.csv"));
+    std::fs::write(&curve_csv, curve).map_err(|e| format!("{}: {e}", curve_csv.display()))?;
+    let at = |mm: f64| (mm * 1e-3 / band.depth_m).powf(1.5);
+    let depths: Vec<f64> = fit.curves.first().map(|c| c.depth_m.iter().map(|d| d * 1e3).collect()).unwrap_or_default();
+    let mut series: Vec<super::plot::Series> = fit
+        .curves
+        .iter()
+        .map(|c| super::plot::Series {
+            name: format!("{label}: fitted limb, virtual indentation, {}", c.site),
+            points: c.depth_m.iter().map(|d| d * 1e3).zip(c.force_n.iter().copied()).collect(),
+        })
+        .collect();
+    for (end, force) in [("low", band.force_min_n), ("high", band.force_max_n)] {
+        series.push(super::plot::Series {
+            name: format!("band {end}: Hertz through {force:.0} N at {:.0} mm", band.depth_m * 1e3),
+            points: depths.iter().map(|d| (*d, force * at(*d))).collect(),
+        });
+    }
+    let png = opts.out.join(format!("indentation_{safe}_fit.png"));
+    super::plot::log_log_lines(&png, "indentation fit: force against depth", "depth (mm)", "force (N)", &series, true)?;
+    let toml = fit.springs.to_toml();
+    let file = opts.out.join(format!("springs_{safe}_in_vivo.toml"));
+    std::fs::write(&file, &toml).map_err(|e| format!("{}: {e}", file.display()))?;
+    println!("its [model.springs] with the fitted compression ({}, plot {}):\n{toml}", file.display(), png.display());
     Ok(())
 }

@@ -182,6 +182,11 @@ enum Command {
         /// layer takes up to four runs per objective, fewer once a run gains under 1 %.
         #[arg(long, default_value_t = 1500, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
         max_evaluations: u32,
+        /// Evaluations of each scene's indentation fit (each one a virtual indentation of the
+        /// scene's limb, about 1-3 s): fat's and muscle's compression fitted to the in-vivo
+        /// band of config/materials/indentation.toml. 0 skips it.
+        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+        indentation_evaluations: u32,
         /// Output folder.
         #[arg(long, default_value = "out/fit")]
         out: PathBuf,
@@ -414,7 +419,16 @@ fn run(command: Command) -> Result<(), String> {
             println!("{report}");
             Ok(())
         }
-        Command::Fit { materials, grid_sizes, scene, model_grid, seed, max_evaluations, out } => {
+        Command::Fit {
+            materials,
+            grid_sizes,
+            scene,
+            model_grid,
+            seed,
+            max_evaluations,
+            indentation_evaluations,
+            out,
+        } => {
             let grids_given = std::env::args().any(|a| a.starts_with("--grid-sizes") || a.starts_with("--model-grid"));
             let (grids, model_grid) = if scene.is_empty() || grids_given {
                 let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
@@ -422,7 +436,16 @@ fn run(command: Command) -> Result<(), String> {
             } else {
                 (Vec::new(), None)
             };
-            fit::fit(&fit::FitOptions { materials, grids, scenes: scene, model_grid, seed, max_evaluations, out })
+            fit::fit(&fit::FitOptions {
+                materials,
+                grids,
+                scenes: scene,
+                model_grid,
+                seed,
+                max_evaluations,
+                indentation_evaluations,
+                out,
+            })
         }
         Command::Demo { scene, seconds, out, record } => demo::demo(scene.as_deref(), seconds, &out, record.as_deref()),
         Command::Profile { scene, seconds, nodes, out } => {

@@ -2,13 +2,16 @@
 
 use super::machine;
 use super::plot::{Series, log_log_lines};
+use lamina_core::fit::IndentationTargets;
 use lamina_core::scene::Scene;
 use lamina_core::solver::IntegratorKind;
 use lamina_core::study::{
     AccuracyCase, AccuracyRow, AccuracyStudy, CouplingRow, MULTIRATE_ROW, PRESS_DEPTH_M, REFERENCE_TOLERANCE,
     accuracy_study, coupling_sweep, run_case, run_case_multirate, stability_cases,
 };
-use lamina_core::study::{PUBLISHED_MODULI, effective_modulus, hertz_force, indentation as indent_scene};
+use lamina_core::study::{
+    PUBLISHED_MODULI, TISSUE_POISSON, effective_modulus, hertz_force, indentation as indent_scene,
+};
 use std::path::Path;
 
 /// Wall time per simulated second that a 1 kHz core may spend on physics: half of real
@@ -319,6 +322,9 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     let mut radius_m = 0.012;
     let bar = super::progress::steps(loaded.len() as u64, "study indentation");
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    let targets = IndentationTargets::shipped();
+    let band = targets.band.clone();
+    let mut checks = Vec::new();
     let mut measured = Vec::new();
     for scene in &loaded {
         bar.set_message(scene.name.clone());
@@ -342,6 +348,7 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
             }
             let (d, f) = (c.depth_m[c.depth_m.len() - 1], c.force_n[c.force_n.len() - 1]);
             println!("   {:.2} kPa", effective_modulus(f, radius, d) / 1e3);
+            checks.push((scene.name.clone(), c.site.clone(), band.check(&c.depth_m, &c.force_n)));
             for (d, f) in c.depth_m.iter().zip(&c.force_n) {
                 csv.push_str(&format!("{},{},{d},{f},{}\n", scene.name, c.site, effective_modulus(*f, radius, *d)));
             }
@@ -351,7 +358,45 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
             });
         }
     }
-    println!("\npublished in-vivo moduli as the same sphere's Hertz force (nu = 0.5)");
+    println!("\nagainst the in-vivo band ({}): {}", targets.band.kind, targets.band.label);
+    println!(
+        "{:<28} {:<44} {:>10} {:>14} {:>8}",
+        "scene",
+        "site",
+        format!("F {:.0} mm", band.depth_m * 1e3),
+        format!("secant {:.0}/{:.0} mm", band.depth_m * 1e3, band.shallow_depth_m * 1e3),
+        "verdict"
+    );
+    let mut passed = 0;
+    for (scene, site, check) in &checks {
+        match check {
+            Some(c) => {
+                let verdict = c.verdict();
+                passed += usize::from(c.force_in_band && c.stiffens);
+                println!("{scene:<28} {site:<44} {:>9.3}N {:>14.2} {verdict:>8}", c.force_n, c.secant_ratio);
+            }
+            None => println!("{scene:<28} {site:<44} {:>10} {:>14} {:>8}", "-", "-", "not reached"),
+        }
+    }
+    println!(
+        "{passed} of {} sites in the band ({:.0}-{:.0} N at {:.0} mm, secant ratio >= {:.1})",
+        checks.len(),
+        band.force_min_n,
+        band.force_max_n,
+        band.depth_m * 1e3,
+        band.min_secant_ratio
+    );
+    if depth_mm as f64 * 1e-3 >= band.depth_m {
+        // The band's ends drawn as Hertz curves (F ~ d^1.5) through them.
+        let at = |mm: f64| (mm * 1e-3 / band.depth_m).powf(1.5);
+        for (end, force) in [("low", band.force_min_n), ("high", band.force_max_n)] {
+            series.push(Series {
+                name: format!("band {end}: Hertz through {force:.0} N at {:.0} mm", band.depth_m * 1e3),
+                points: (1..=depth_mm).map(|d| (f64::from(d), force * at(f64::from(d)))).collect(),
+            });
+        }
+    }
+    println!("\npublished in-vivo moduli as the same sphere's Hertz force (nu = {TISSUE_POISSON})");
     for m in PUBLISHED_MODULI {
         let at = |mm: f64| hertz_force(m.modulus_pa, radius_m, mm * 1e-3);
         println!("{:<58} {:>6.1} kPa: {:.4} N at 1 mm, {:.3} N at 8 mm", m.label, m.modulus_pa / 1e3, at(1.0), at(8.0));

@@ -11,9 +11,13 @@
 //! 5. [`layer_fit`]: the objective ψ and one layer's fit, every evaluation's curve kept.
 //! 6. [`curve_error`](mod@curve_error): the fitted layer against the tissue's own curve, point by point.
 //! 7. [`scene_fit`]: a scene's three layers, on the geometry of the limb it generates.
+//! 8. [`indentation_targets`]: the in-vivo indentation band the living limb is checked against.
+//! 9. [`indentation_fit`]: fat's and muscle's compression fitted to it by a virtual indentation.
 
 pub mod anneal;
 pub mod curve_error;
+pub mod indentation_fit;
+pub mod indentation_targets;
 pub mod layer_fit;
 pub mod regression;
 pub mod scene_fit;
@@ -22,6 +26,15 @@ pub mod tensile;
 
 pub use anneal::{AnnealResult, AnnealSettings, AnnealStep, AnnealStop, anneal};
 pub use curve_error::{CurveError, curve_error};
+pub use indentation_fit::{
+    FAT_COMPRESSION_RATIO_RANGE, FIT_SITES, INDENTATION_WEIGHTS, IndentationFit, IndentationFitError,
+    MUSCLE_COMPRESSION_RATIO_RANGE, STIFFENING_MARGIN, fit_indentation, indentation_psi, press_candidate,
+    with_compression_ratios,
+};
+pub use indentation_targets::{
+    BandCheck, IndentationBand, IndentationTargets, MeasuredIndentation, SHIPPED_INDENTATION_TARGETS,
+    hertz_sphere_force,
+};
 pub use layer_fit::{
     Achieved, FitObjective, FitSettings, LayerFit, LayerFitError, LayerGeometry, fit_layer, macroscopic, material_of,
     psi, strain_psi,

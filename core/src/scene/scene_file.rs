@@ -3,6 +3,7 @@
 //! `tool_section.rs`, `realtime_section.rs`); this file puts them together.
 
 use super::effects_section::{RawEffects, effects};
+use super::in_vivo::{InVivo, RawInVivo, in_vivo};
 use super::layered_block::layered_block;
 use super::model_section::{ModelSource, RawModel, model_source};
 use super::realtime_section::{RawRealtime, RealtimeSettings, realtime_settings};
@@ -50,6 +51,9 @@ pub struct Scene {
     pub tool: Option<ToolSettings>,
     /// How the viewer draws the tissue (`[visual]`), when the scene says.
     pub visual: Option<VisualSection>,
+    /// The living limb's skin pre-tension and muscle tone (`[in_vivo]`), applied when the
+    /// model is built. Default: none.
+    pub in_vivo: InVivo,
     /// File the scene was read from (`None` for the built-in one).
     pub path: Option<PathBuf>,
 }
@@ -113,6 +117,7 @@ struct RawScene {
     #[serde(default)]
     realtime: RawRealtime,
     visual: Option<RawVisual>,
+    in_vivo: Option<RawInVivo>,
 }
 
 /// 1-based line and column of byte `offset` in `text` (for TOML errors).
@@ -206,6 +211,7 @@ impl Scene {
         let solver = solver_parameters(raw.solver, rate_hz, tool_centre).map_err(located)?;
         let realtime = realtime_settings(raw.realtime).map_err(located)?;
         let visual = visual_section(raw.visual, base).map_err(located)?;
+        let in_vivo = in_vivo(raw.in_vivo).map_err(located)?;
         let mut scene = Self {
             name: raw.name.unwrap_or_else(|| "unnamed".into()),
             rate_hz,
@@ -216,11 +222,13 @@ impl Scene {
             realtime,
             tool,
             visual,
+            in_vivo,
             path: path.map(Path::to_path_buf),
         };
         if let Some(per_area) = scene.tool.and_then(|t| t.stiffness_per_area) {
-            // The per-node stiffness needs the model's skin: built here, only for this key.
-            let area = crate::solver::largest_skin_node_area(&scene.build_model()?);
+            // The per-node stiffness needs the model's skin: built here (as generated, before the
+            // in-vivo settling moves it by a fraction of a millimetre), only for this key.
+            let area = crate::solver::largest_skin_node_area(&scene.build_generated_model()?);
             let field = "effects.tool.stiffness_per_area";
             let stiffness = match area.map(|a| (a, per_area * a)) {
                 None => Err(FieldError::new(
@@ -244,8 +252,22 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Builds (or reads) the scene's model.
+    /// Builds (or reads) the scene's model, with the scene's in-vivo skin pre-tension and
+    /// muscle tone applied and settled ([`InVivo::apply`]).
     pub fn build_model(&self) -> Result<Model, SceneLoadError> {
+        let mut model = self.build_generated_model()?;
+        if !self.in_vivo.is_identity() {
+            let file = self.path.clone().unwrap_or_else(|| PathBuf::from("<built-in default scene>"));
+            self.in_vivo
+                .apply(&mut model, self.effects.skin_volume)
+                .map_err(|e| SceneLoadError::Model { path: file, message: e.to_string() })?;
+        }
+        Ok(model)
+    }
+
+    /// Builds (or reads) the scene's model as generated or stored, without the in-vivo
+    /// settings.
+    pub fn build_generated_model(&self) -> Result<Model, SceneLoadError> {
         let file = self.path.clone().unwrap_or_else(|| PathBuf::from("<built-in default scene>"));
         let model = match &self.model {
             ModelSource::LayeredBlock(spec) => layered_block(spec),
@@ -309,7 +331,8 @@ mod tests {
     fn scene_builtin_default_tool_and_handle_sit_on_the_skin_works() {
         use crate::solver::Simulation;
         let s = Scene::builtin_default();
-        let m = s.build_model().unwrap();
+        // The generated geometry finds the node; the settled (in-vivo) model is what runs.
+        let m = s.build_generated_model().unwrap();
         let outer_radius = crate::generator::CylinderLimb::default().outer_skin_radius;
         let tool = s.tool.expect("the default scene has a haptic tool");
         let ToolSource::Haptics { device_origin, .. } = tool.source else { panic!("haptics tool") };
@@ -325,7 +348,7 @@ mod tests {
         assert_eq!(under.len(), 1, "one skin node under the device's centre");
         // Once the limb has settled (only the drag handle loads it), the device's centre is one tool radius
         // above that node (within 0.2 mm), so device z = 0 is the tool just touching.
-        let mut sim = Simulation::<f64>::new(&m, s.solver.clone(), s.effects.clone()).unwrap();
+        let mut sim = Simulation::<f64>::new(&s.build_model().unwrap(), s.solver.clone(), s.effects.clone()).unwrap();
         for _ in 0..3 * s.rate_hz {
             sim.step();
         }

@@ -5,7 +5,11 @@
 //! Each site is an outer-skin grid point at mid-length; the sphere touches it from outside
 //! along the line to the nearest bone node and is lowered in steps of 1 mm at 10 mm/s, each
 //! step held 0.2 s, the force read at the end of each hold (quasi-static: the limb's slowest
-//! motion under the viscous damping of the scenes decays within it).
+//! motion under the viscous damping of the scenes decays within it). The press runs
+//! single-rate (every node every tick) whatever the scene's multirate settings, so each site
+//! sees the whole limb. Depths beyond half the soft tissue under a site are refused: Hertz
+//! contact, which brings the force to a modulus, holds only while the depth is small against
+//! the tissue's thickness.
 
 use crate::generator::vec3::{add, dot, norm, normalize, scale, sub};
 use crate::hand_tool::HandTool;
@@ -31,6 +35,16 @@ pub enum IndentationError {
     /// The simulation with the tool could not be built.
     #[error(transparent)]
     Simulation(#[from] SimulationBuildError),
+    /// The depth asked for is beyond half the soft tissue's thickness at a site.
+    #[error("{site}: a {depth_mm} mm press is beyond half the {thickness_mm:.1} mm of soft tissue over the bone there")]
+    TooDeep {
+        /// The site.
+        site: String,
+        /// Depth asked for, mm.
+        depth_mm: u32,
+        /// Skin-to-bone distance at the site, mm.
+        thickness_mm: f64,
+    },
     /// The force on the sphere became NaN or infinite.
     #[error("{site}: non-finite force at {depth_mm} mm")]
     NonFiniteForce {
@@ -60,7 +74,7 @@ pub const PUBLISHED_MODULI: [PublishedModulus; 4] = [
 
 /// Poisson's ratio used to bring a modulus to a contact force: soft tissue is nearly
 /// incompressible.
-pub const TISSUE_POISSON: f64 = 0.5;
+pub const TISSUE_POISSON: f64 = 0.49;
 
 /// Hertz contact of a rigid sphere of `radius_m` pressed `depth_m` into a half-space of
 /// Young's modulus `modulus_pa`: F = 4/3 · E/(1 − ν²) · √R · d^{3/2}, N.
@@ -69,7 +83,7 @@ pub const TISSUE_POISSON: f64 = 0.5;
 /// use lamina_core::study::hertz_force;
 /// // 26 kPa tissue, 12 mm sphere, 8 mm deep: about 3.6 N.
 /// let f = hertz_force(26e3, 0.012, 0.008);
-/// assert!((f - 3.62).abs() < 0.01);
+/// assert!((f - 3.58).abs() < 0.01);
 /// ```
 pub fn hertz_force(modulus_pa: f64, radius_m: f64, depth_m: f64) -> f64 {
     4.0 / 3.0 * modulus_pa / (1.0 - TISSUE_POISSON * TISSUE_POISSON) * radius_m.sqrt() * depth_m.max(0.0).powf(1.5)
@@ -102,6 +116,20 @@ pub fn indentation(
     max_depth_mm: u32,
 ) -> Result<(f64, Vec<IndentationCurve>), IndentationError> {
     let model = scene.build_model()?;
+    indentation_of_model(scene, &model, sites, max_depth_mm)
+}
+
+/// [`indentation`] on a model already built (the scene's own, or a candidate of a fit),
+/// with the scene's solver, effects and tool.
+///
+/// # Errors
+/// As [`indentation`].
+pub fn indentation_of_model(
+    scene: &Scene,
+    model: &Model,
+    sites: usize,
+    max_depth_mm: u32,
+) -> Result<(f64, Vec<IndentationCurve>), IndentationError> {
     let settings = scene.tool.unwrap_or(ToolSettings {
         radius: 0.012,
         stiffness: 300.0,
@@ -122,7 +150,7 @@ pub fn indentation(
     for k in 0..sites.max(1) {
         let column = k * columns / sites.max(1);
         let node = grid[(rows / 2) * (columns + 1) + column] as usize;
-        let curve = press_site(scene, &model, settings, node, max_depth_mm)?;
+        let curve = press_site(scene, model, settings, node, max_depth_mm)?;
         curves.push(curve);
     }
     Ok((radius, curves))
@@ -142,17 +170,20 @@ fn press_site(
         .min_by(|a, b| norm(sub(*a, skin)).total_cmp(&norm(sub(*b, skin))))
         .ok_or(IndentationError::NoBone)?;
     let inward = normalize(sub(bone, skin)).ok_or(IndentationError::SkinOnBone)?;
+    let site = format!("node {node} at ({:.1}, {:.1}, {:.1}) mm", skin[0] * 1e3, skin[1] * 1e3, skin[2] * 1e3);
+    let thickness = norm(sub(bone, skin));
+    if f64::from(max_depth_mm) * 1e-3 > 0.5 * thickness {
+        return Err(IndentationError::TooDeep { site, depth_mm: max_depth_mm, thickness_mm: thickness * 1e3 });
+    }
     let mut effects = scene.effects.clone();
     effects.handles.clear(); // only the tool loads the limb
-    let (mut sim, mut tool) = HandTool::simulation::<f64>(model, scene.solver.clone(), effects, settings)?;
+    let mut solver = scene.solver.clone();
+    solver.multirate = None; // every site sees the whole limb
+    let (mut sim, mut tool) = HandTool::simulation::<f64>(model, solver, effects, settings)?;
     let dt = 1.0 / f64::from(scene.rate_hz);
     let touching = sub(skin, scale(inward, settings.radius));
     let (ramp_steps, hold_steps) = ((0.1 / dt).round() as usize, (0.2 / dt).round() as usize);
-    let mut curve = IndentationCurve {
-        site: format!("node {node} at ({:.1}, {:.1}, {:.1}) mm", skin[0] * 1e3, skin[1] * 1e3, skin[2] * 1e3),
-        depth_m: Vec::new(),
-        force_n: Vec::new(),
-    };
+    let mut curve = IndentationCurve { site, depth_m: Vec::new(), force_n: Vec::new() };
     for mm in 1..=max_depth_mm {
         let from = f64::from(mm - 1) * 1e-3;
         for s in 1..=ramp_steps + hold_steps {

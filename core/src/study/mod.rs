@@ -18,7 +18,7 @@ pub use coupling::{CouplingRow, coupling_sweep};
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
 pub use indentation::{
     IndentationCurve, IndentationError, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus,
-    hertz_force, indentation,
+    hertz_force, indentation, indentation_of_model,
 };
 pub use reference::{MAX_REFERENCE_STEPS, Reference, ReferenceError, max_distance};
 pub use stability::{
