@@ -57,7 +57,12 @@ fn plugin_reporting_1e308_limits_is_clamped_reported_and_an_8mm_press_gets_at_mo
     assert!(writes > 1000, "the loop ran: {writes} writes");
     assert!(max_force <= 12.0 + 1e-9, "the device was commanded {max_force} N, above the 12 N ceiling");
     assert!(max_force > 11.9, "the press reached the ceiling: {max_force} N");
-    assert!(stdout(&out).contains("device class unlisted device: max force"), "{}", stdout(&out));
+    let summary = stdout(&out);
+    assert!(summary.contains("device class unlisted device: max force"), "{summary}");
+    assert!(
+        summary.contains("(limit 12.00 N)") && summary.contains("(limit 5000 N/m)"),
+        "the loop's limits: {summary}"
+    );
 }
 
 #[test]
