@@ -54,6 +54,7 @@ fn plugin_reporting_1e308_limits_is_clamped_reported_and_an_8mm_press_gets_at_mo
         assert!(err.contains(what), "the clamp of {what} is reported at start: {err}");
     }
     assert!(err.contains("unlisted device ceiling: 12 N used"), "{err}");
+    eprintln!("1e308 limits, 8 mm into 1e6 N/m: largest force commanded {max_force:.6} N in {writes} writes");
     assert!(writes > 1000, "the loop ran: {writes} writes");
     assert!(max_force <= 12.0 + 1e-9, "the device was commanded {max_force} N, above the 12 N ceiling");
     assert!(max_force > 11.9, "the press reached the ceiling: {max_force} N");
@@ -73,6 +74,7 @@ fn max_force_is_obeyed_in_the_commands_the_device_receives_works() {
     assert!((uncapped - 8.0).abs() < 1e-9, "without --max-force the device limit holds: {uncapped} N");
     let (out, (_, capped, _)) = press("cap2", "press_mm=8", 1e4, "1", &["--quiet", "--max-force", "2"]);
     assert!(out.status.success(), "{}", stderr(&out));
+    eprintln!("8 mm into 1e4 N/m: largest force commanded {uncapped:.6} N, with --max-force 2 {capped:.6} N");
     assert!(capped <= 2.0 + 1e-9, "--max-force 2 but the device was commanded {capped} N");
     assert!(capped > 1.99, "the press reached the cap: {capped} N");
     assert!(stdout(&out).contains("(limit 2.00 N)"), "{}", stdout(&out));
