@@ -47,7 +47,9 @@ fn press(
 #[test]
 fn plugin_reporting_1e308_limits_is_clamped_reported_and_an_8mm_press_gets_at_most_the_ceiling_works() {
     // A wall of 1e6 N/m pressed 8 mm asks for 8 kN; the plugin claims it can take 1e308 N.
-    let (out, (writes, max_force, _)) = press("huge", "huge_limits,press_mm=8", 1e6, "1", &["--quiet"]);
+    let report = scratch().join(format!("{}.json", prefix("huge")));
+    let r = report.display().to_string();
+    let (out, (writes, max_force, _)) = press("huge", "huge_limits,press_mm=8", 1e6, "1", &["--quiet", "--report", &r]);
     let err = stderr(&out);
     assert!(out.status.success(), "{err}");
     for what in ["max force 1e308 N reported", "max stiffness 1e308 N/m reported", "max damping 1e308 N s/m reported"] {
@@ -64,6 +66,25 @@ fn plugin_reporting_1e308_limits_is_clamped_reported_and_an_8mm_press_gets_at_mo
         summary.contains("(limit 12.00 N)") && summary.contains("(limit 5000 N/m)"),
         "the loop's limits: {summary}"
     );
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["device_class"], "unlisted device");
+    let clamps: Vec<(String, f64, f64)> = json["limit_clamps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (c["limit"].as_str().unwrap().to_string(), c["reported"].as_f64().unwrap(), c["ceiling"].as_f64().unwrap())
+        })
+        .collect();
+    assert_eq!(
+        clamps,
+        [
+            ("max force".into(), 1e308, 12.0),
+            ("max stiffness".into(), 1e308, 5000.0),
+            ("max damping".into(), 1e308, 30.0)
+        ]
+    );
+    assert_eq!(json["limits"]["max_force_n"], 12.0);
 }
 
 #[test]
