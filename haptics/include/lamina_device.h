@@ -18,7 +18,8 @@
  * should not allocate. A call that has not returned after 5 ms is a fault: Lamina reports it,
  * calls lamina_device_emergency_stop from its watchdog thread, and ramps the force back in
  * from zero once calls return; if the call never returns, the process exits at the end of
- * its run (--seconds) or on SIGINT/SIGTERM.
+ * its run (--seconds) or on SIGINT/SIGTERM. An open that has not returned by the end of the
+ * run (--seconds) ends the process too.
  *
  * Safety contract: Lamina holds the limits reported in LaminaDeviceInfo to the ceilings of
  * the device's class (found from its name; docs/haptics.md lists them), clamps forces to

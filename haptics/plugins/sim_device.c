@@ -13,6 +13,7 @@
  *   "huge_limits"        reports 1e308 N, N/m and N s/m as its limits;
  *   "huge_pose_after=N"  reports z = 1e300 m after N reads;
  *   "block_after=N"      read blocks after N reads: for "block_ms=M" ms once, else forever;
+ *   "block_open"         open never returns;
  *   "press_mm=D"         the handle ignores forces and presses: z from +10 mm down 10 um per
  *                        read to -D mm, then holds;
  *   "log=PATH"           at close, writes the writes received, the largest force norm
@@ -60,6 +61,10 @@ static long arg_value(const char *args, const char *key) {
 }
 
 void *lamina_device_open(const char *args, LaminaDeviceInfo *info_out) {
+    if (strstr(args, "block_open")) {
+        struct timespec ms = {0, 1000000};
+        for (;;) nanosleep(&ms, NULL);
+    }
     if (strstr(args, "fail_open")) {
         strcpy(open_error, "simulated device: no device on the USB bus (fail_open)");
         return NULL;

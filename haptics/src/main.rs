@@ -419,11 +419,35 @@ impl Watchdog {
     }
 }
 
+/// Ends the process (code 2) if opening the device has not returned by the end of the run
+/// (`--seconds`): a plugin's `lamina_device_open` that blocks must not outlast it.
+fn guard_open(seconds: Option<f64>, device: &str) -> Arc<AtomicBool> {
+    let opened = Arc::new(AtomicBool::new(false));
+    if let Some(s) = seconds {
+        let (done, device) = (opened.clone(), device.to_string());
+        let deadline = now_ns().saturating_add((s * 1e9) as u64);
+        std::thread::spawn(move || {
+            while !done.load(Ordering::Acquire) {
+                if now_ns() >= deadline {
+                    eprintln!(
+                        "lamina-haptics: haptic device '{device}': opening it has not returned within --seconds {s}: exiting"
+                    );
+                    std::process::exit(2);
+                }
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+        });
+    }
+    opened
+}
+
 fn run(args: &Args) -> anyhow::Result<bool> {
     check_options(args)?;
-    let (mut device, script_s) = open_device(&args.device, &args.device_args)
-        .map_err(anyhow::Error::msg)
-        .with_context(|| format!("haptic device '{}'", args.device))?;
+    let opened = guard_open(args.seconds, &args.device);
+    let device = open_device(&args.device, &args.device_args);
+    opened.store(true, Ordering::Release);
+    let (mut device, script_s) =
+        device.map_err(anyhow::Error::msg).with_context(|| format!("haptic device '{}'", args.device))?;
     check_limits(args, device.as_ref())?;
     let scene = args.scene.as_deref().map(SceneFile::read).transpose()?;
     let context = RunContext::start(scene);

@@ -221,3 +221,24 @@ fn device_plugin_with_an_empty_path_names_the_option_fails() {
         assert!(!err.contains("missing symbol"), "blames the option, not the program: {err}");
     }
 }
+
+#[test]
+fn plugin_open_that_never_returns_ends_at_seconds_fails() {
+    let p = prefix("open");
+    let dev = device();
+    let out = haptics(&[
+        "--prefix",
+        &p,
+        "--device",
+        &dev,
+        "--device-args",
+        "block_open",
+        "--origin",
+        "0,0,0",
+        "--seconds",
+        "0.5",
+    ]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("opening it has not returned within --seconds 0.5"), "{err}");
+}
