@@ -20,6 +20,24 @@ fn device() -> String {
     format!("plugin:{}", plugin().display())
 }
 
+/// Runs the plugin with `device_args` for `seconds`, without a core, `--quiet`.
+fn alone(tag: &str, device_args: &str, seconds: &str) -> std::process::Output {
+    let (p, dev) = (prefix(tag), device());
+    haptics(&[
+        "--prefix",
+        &p,
+        "--device",
+        &dev,
+        "--device-args",
+        device_args,
+        "--origin",
+        "0,0,0",
+        "--seconds",
+        seconds,
+        "--quiet",
+    ])
+}
+
 /// Runs the plugin with `device_args` against a wall of stiffness `k` for `seconds`, with the
 /// device's centre at the model origin; the output and the plugin's log.
 fn press(
@@ -156,21 +174,7 @@ fn pose_beyond_the_workspace_is_a_fault_that_fades_the_force_and_is_reported_wor
 #[test]
 fn plugin_call_that_blocks_forever_is_a_fault_and_seconds_is_honoured_works() {
     let _one = serial();
-    let p = prefix("block");
-    let dev = device();
-    let out = haptics(&[
-        "--prefix",
-        &p,
-        "--device",
-        &dev,
-        "--device-args",
-        "block_after=1000",
-        "--origin",
-        "0,0,0",
-        "--seconds",
-        "1",
-        "--quiet",
-    ]);
+    let out = alone("block", "block_after=1000", "1");
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(3), "the process ends although the plugin never returns: {err}");
     assert!(err.contains("call read has not returned after") && err.contains("(limit 5 ms): fault"), "{err}");
@@ -224,20 +228,7 @@ fn device_plugin_with_an_empty_path_names_the_option_fails() {
 
 #[test]
 fn plugin_open_that_never_returns_ends_at_seconds_fails() {
-    let p = prefix("open");
-    let dev = device();
-    let out = haptics(&[
-        "--prefix",
-        &p,
-        "--device",
-        &dev,
-        "--device-args",
-        "block_open",
-        "--origin",
-        "0,0,0",
-        "--seconds",
-        "0.5",
-    ]);
+    let out = alone("open", "block_open", "0.5");
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("opening it has not returned within --seconds 0.5"), "{err}");
