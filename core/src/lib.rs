@@ -1,6 +1,8 @@
-//! Lamina's physics core: the layered mass-spring model, spring laws, the solver, scenes
-//! and the yardstick benchmark. No I/O beyond reading scene and model files; nothing here
-//! knows of iceoryx2, windows or devices.
+//! Lamina's physics core: the layered mass-spring model, spring laws, the solver, scenes,
+//! the generator, material fitting, the studies and the yardstick benchmark. It reads scene,
+//! model, surface and material files, and writes model files and VTK time series when asked
+//! ([`io`]); [`solver::Simulation::step`] does no I/O. Nothing here knows of iceoryx2,
+//! windows or devices.
 //!
 //! # The pipeline
 //! 1. [`scene::Scene`] reads a scene file (or [`scene::Scene::builtin_default`]): where the
@@ -43,3 +45,24 @@ pub mod scene;
 pub mod solver;
 pub mod study;
 pub mod yardstick;
+
+/// README.md's library example is this crate's doctest above, line for line, so the README
+/// shows code that compiles and runs.
+#[cfg(test)]
+mod readme_example {
+    /// The lines between the first fence opening with `open` and the next closing fence.
+    fn fenced<'a>(lines: impl Iterator<Item = &'a str>, open: &str) -> Vec<&'a str> {
+        lines.skip_while(|l| !l.starts_with(open)).skip(1).take_while(|l| *l != "```").collect()
+    }
+
+    #[test]
+    fn readme_library_example_is_the_crate_doctest_works() {
+        let readme = fenced(include_str!("../../README.md").lines(), "```rust");
+        let doc_lines =
+            include_str!("lib.rs").lines().filter_map(|l| l.strip_prefix("//! ").or((l == "//!").then_some("")));
+        // Lines starting with `# ` are hidden from the rendered doctest, as from the README.
+        let doctest: Vec<&str> = fenced(doc_lines, "```").into_iter().filter(|l| !l.starts_with("# ")).collect();
+        assert!(doctest.len() > 5, "the crate doctest: {doctest:?}");
+        assert_eq!(readme, doctest, "README.md's ```rust block against core/src/lib.rs's doctest");
+    }
+}

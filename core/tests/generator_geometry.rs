@@ -8,7 +8,6 @@ use lamina_core::generator::{
 };
 use lamina_core::model::{Model, NodeKind, Tissue};
 use std::collections::HashMap;
-use std::time::Instant;
 
 fn limb(w: u32, h: u32) -> (CylinderLimb, Model) {
     let spec = CylinderLimb::new(w, h);
@@ -197,15 +196,26 @@ fn generator_progress_reports_every_stage_works() {
 }
 
 #[test]
-fn generator_default_limb_prints_time_works() {
-    let start = Instant::now();
-    let (_, model) = limb(39, 10);
-    println!(
-        "generated 39x10 limb: {} masses, {} springs in {:.2} ms",
-        model.nodes.len(),
-        model.springs.len(),
-        start.elapsed().as_secs_f64() * 1e3
-    );
+fn generator_layer_counts_follow_closed_forms_works() {
+    // The closed forms of `generator::families` and docs/generator.md: on a W x H grid the
+    // skin holds the outer nodes and the skin/fat level, W(3H+1), the fat the fat/muscle level
+    // and the bone the muscle/bone level, 2WH each (the muscle has no level of its own); the
+    // skin has W(15H-1) springs, fat and muscle each a cross-linked block of W(20H-6), the bone
+    // none. 39 x 10: 1,209 / 780 / 0 / 780 nodes, 5,811 / 7,566 / 7,566 / 0 springs.
+    for (w, h) in [(24usize, 6usize), (39, 10)] {
+        let (_, model) = limb(w as u32, h as u32);
+        for (name, nodes, springs) in [
+            ("skin", w * (3 * h + 1), w * (15 * h - 1)),
+            ("fat", 2 * w * h, w * (20 * h - 6)),
+            ("muscle", 0, w * (20 * h - 6)),
+            ("bone", 2 * w * h, 0),
+        ] {
+            let layer = model.layer_index(name).unwrap();
+            let of_nodes = model.nodes.layer.iter().filter(|&&l| l == layer).count();
+            let of_springs = model.springs.layer.iter().filter(|&&l| l == layer).count();
+            assert_eq!((of_nodes, of_springs), (nodes, springs), "{w}x{h} {name}: nodes, springs");
+        }
+    }
 }
 
 #[test]

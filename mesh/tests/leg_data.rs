@@ -29,20 +29,40 @@ fn leg_fat_muscle_boundary_load_works() {
     assert!(loaded.mesh.signed_volume() > 0.0);
 }
 
+/// Triangles in a binary STL as its own header states (the u32 after the 80-byte header),
+/// with the file's size checked against it (84 bytes + 50 per triangle): a reader apart
+/// from `lamina-mesh`'s.
+fn stl_header_triangles(path: &std::path::Path) -> usize {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+    assert_eq!(bytes.len(), 84 + 50 * n, "{}: size against its header's {n} triangles", path.display());
+    n
+}
+
 #[test]
-fn leg_inspect_all_files_works() {
+fn leg_inspect_all_files_match_the_data_readme_works() {
     let dir = data_dir();
-    for name in [
-        "fat_muscle_boundary.stl",
-        "skin_outer.stl",
-        "bone_femur.stl",
-        "bone_tibia.stl",
-        "bone_fibula.stl",
-        "bone_patella.stl",
+    // The table of data/bodyparts3d-leg/README.md: file, triangles, z range in mm.
+    for (name, triangles, z_min_mm, z_max_mm) in [
+        ("skin_outer.stl", 58_010, -13.0, 810.0),
+        ("fat_muscle_boundary.stl", 129_236, 157.0, 804.0),
+        ("bone_femur.stl", 8_574, 403.0, 843.0),
+        ("bone_tibia.stl", 5_742, 60.0, 405.0),
+        ("bone_fibula.stl", 4_206, 41.0, 391.0),
+        ("bone_patella.stl", 836, 397.0, 436.0),
     ] {
-        let t0 = Instant::now();
-        let ins = inspect(dir.join(name)).unwrap();
-        println!("inspect in {:.1} ms\n{ins}", t0.elapsed().as_secs_f64() * 1e3);
+        let path = dir.join(name);
+        let ins = inspect(&path).unwrap();
+        println!("{ins}");
+        assert_eq!(ins.raw_triangles, triangles, "{name}: triangles");
+        assert_eq!(ins.raw_triangles, stl_header_triangles(&path), "{name}: the STL header's count");
+        assert_eq!(ins.raw_vertices, 3 * triangles, "{name}: unwelded corners");
+        assert_eq!(ins.units, Units::Millimetre, "{name}");
+        // The README's surfaces are closed once coincident corners are welded.
+        assert!(ins.is_closed() && ins.holes == 0, "{name}: closed ({} boundary edges)", ins.boundary_edges);
+        // Bounds in metres; the README rounds them to the millimetre.
+        let (lo, hi) = (ins.bounding_box.min[2] * 1e3, ins.bounding_box.max[2] * 1e3);
+        assert!((lo - z_min_mm).abs() <= 0.5 && (hi - z_max_mm).abs() <= 0.5, "{name}: z {lo:.2}..{hi:.2} mm");
     }
 }
 
