@@ -37,7 +37,7 @@ fn trajectory_malformed_names_line_fails() {
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e12,0,0,0\n", 3, "outside 0 to 86400 s"),
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e300,0,0,0\n", 3, "outside 0 to 86400 s"),
         ("t_s,x_m,y_m,z_m\n-1,0,0,0\n", 2, "outside 0 to 86400 s"),
-        // Rows beyond the scripted device's 8 cm reach: |z| = 1e308 was sent on as commands.
+        // Rows beyond the scripted device's 8 cm reach, up to |z| = 1e308.
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1,0,0,1e308\n", 3, "beyond the scripted device's reach of 0.08 m"),
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1,0,0,-1e308\n", 3, "1.000e308 m from the workspace centre"),
         ("t_s,x_m,y_m,z_m\n0,0.06,0.06,0\n", 2, "beyond the scripted device's reach of 0.08 m"),
