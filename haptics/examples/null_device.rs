@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The default scene's device_origin (config/scenes/default.toml), m.
     let config = HapticsConfig { mapping: DeviceMapping::y_up_model([0.0, 0.062, 0.12]), ..HapticsConfig::default() };
     let limit = RunLimit::duration_ns((seconds.clamp(0.0, 3600.0) * 1e9) as u64);
-    let report = run_device_loop(&mut device, &bridge, &config, limit, None)?;
+    let report = run_device_loop(&mut device, &bridge, &config, limit, None, None)?;
     let s = report.monitor.summary();
     println!(
         "{} ticks at {} Hz, {} missed; period p50 {:.1} us, p99 {:.1} us; {} tool commands sent",

@@ -12,13 +12,20 @@
  * metres, forces in newtons, orientations as unit quaternions (x, y, z, w) rotating the
  * handle frame into the device frame.
  *
- * Threading: every function is called from one thread, the haptics process's device loop
- * (1-4 kHz, SCHED_FIFO). lamina_device_read and lamina_device_write_force must not block
- * for longer than a fraction of a millisecond and should not allocate.
+ * Threading: every function but lamina_device_emergency_stop is called from one thread, the
+ * haptics process's device loop (1-4 kHz, SCHED_FIFO). lamina_device_read and
+ * lamina_device_write_force must not block for longer than a fraction of a millisecond and
+ * should not allocate. A call that has not returned after 5 ms is a fault: Lamina reports it,
+ * calls lamina_device_emergency_stop from its watchdog thread, and ramps the force back in
+ * from zero once calls return; if the call never returns, the process exits at the end of
+ * its run (--seconds) or on SIGINT/SIGTERM. An open that has not returned by the end of the
+ * run (--seconds) ends the process too.
  *
- * Safety contract: Lamina clamps forces to info.max_force_n and makes them finite before
- * calling lamina_device_write_force; the plugin should clamp again to the hardware's own
- * limit. On any error the plugin must leave the device with zero force.
+ * Safety contract: Lamina holds the limits reported in LaminaDeviceInfo to the ceilings of
+ * the device's class (found from its name; docs/haptics.md lists them), clamps forces to
+ * that limit and makes them finite before calling lamina_device_write_force; the plugin
+ * should clamp again to the hardware's own limit. Poses beyond workspace_radius_m are faults
+ * (the force fades to zero). On any error the plugin must leave the device with zero force.
  */
 #ifndef LAMINA_DEVICE_H
 #define LAMINA_DEVICE_H
@@ -75,6 +82,14 @@ const char *lamina_device_last_error(void *device);
 
 /* Sets zero force and releases the device. `device` is not used afterwards. */
 void lamina_device_close(void *device);
+
+/* Optional. Sets zero force at once (e.g. dhdSetForce(0, 0, 0) or disabling the amplifiers).
+ * Unlike the other functions it may be called from another thread at any time, also while
+ * lamina_device_read or lamina_device_write_force is in progress on `device`: Lamina's
+ * watchdog calls it when such a call has blocked for more than 5 ms. A plugin without it still
+ * loads; its blocked calls are reported, and the device holds its last command until its own
+ * watchdog acts. */
+void lamina_device_emergency_stop(void *device);
 
 #ifdef __cplusplus
 }

@@ -9,8 +9,9 @@ use lamina_rt::{DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, O
 
 use super::mapping::DeviceMapping;
 use super::renderer::{ForceRenderer, RenderLimits};
-use super::safety::{SafetyCounts, SafetyEvent};
-use crate::device::{DeviceError, HapticDevice};
+use super::safety::{SafetyCounts, SafetyEvent, SafetyEventKind};
+use crate::device::{DeviceError, HapticDevice, LimitClamp, norm3, within_ceilings};
+use crate::watchdog::{CallWatch, DEVICE_CALL_LIMIT_NS, DeviceCall};
 use lamina_bridge::wire::ToolCommand;
 use lamina_bridge::{Bridge, FeedbackSubscriber, PortCreateError, ToolPublisher};
 use lamina_rt::now_ns;
@@ -24,7 +25,8 @@ pub struct HapticsConfig {
     pub mapping: DeviceMapping,
     /// Tool tip radius sent with each command, m; 0 lets the core use its scene's. Default 0.
     pub tool_radius_m: f64,
-    /// Upper bound on force below the device's own limit, N. Default: none.
+    /// Upper bound on force, N: above 0 and at most the device's limit (held to its class
+    /// ceiling), else the loop refuses to start ([`check_force_cap`]). Default: none.
     pub max_force_n: Option<f64>,
     /// Rows of the per-tick trace kept in memory (allocated before the loop). Default 0.
     pub trace_capacity: usize,
@@ -75,6 +77,10 @@ pub struct HapticsReport {
     pub max_force_n: f64,
     /// The limits that were in force.
     pub limits: RenderLimits,
+    /// The device's class (`DeviceClass::name`), whose ceilings bound its limits.
+    pub device_class: &'static str,
+    /// The reported limits that were above the class ceiling, and the ceilings used.
+    pub limit_clamps: Vec<LimitClamp>,
     /// Per-tick trace (first `trace_capacity` ticks).
     pub trace: Vec<TraceRow>,
     /// Why the loop ended early, if it did: the device failed.
@@ -93,6 +99,32 @@ pub enum HapticsStartError {
     /// The device's limits are not usable (non-positive or non-finite).
     #[error("haptic device limits: {0}")]
     DeviceLimits(String),
+    /// The force cap is not a usable value for this device.
+    #[error("force cap: {0}")]
+    ForceCap(String),
+}
+
+/// Checks an operator's force cap `cap_n` against the device's limit `device_limit_n` (its
+/// reported limit held to its class ceiling): it must be finite, above 0 and at most the
+/// limit. The message names the value and the valid range.
+///
+/// # Examples
+///
+/// ```
+/// use lamina_haptics::check_force_cap;
+///
+/// assert!(check_force_cap(2.0, 8.0).is_ok());
+/// for bad in [0.0, -5.0, f64::NAN, f64::INFINITY, 9.0] {
+///     assert!(check_force_cap(bad, 8.0).unwrap_err().contains("0 < F <= 8 N"));
+/// }
+/// ```
+pub fn check_force_cap(cap_n: f64, device_limit_n: f64) -> Result<(), String> {
+    if cap_n.is_finite() && cap_n > 0.0 && cap_n <= device_limit_n {
+        Ok(())
+    } else {
+        let (cap, limit) = (crate::device::show_number(cap_n), crate::device::show_number(device_limit_n));
+        Err(format!("{cap} N is outside the valid range 0 < F <= {limit} N (the device's limit)"))
+    }
 }
 
 /// Runs the device loop until `limit`, then commands zero force and returns the report.
@@ -100,31 +132,50 @@ pub enum HapticsStartError {
 /// Per tick: sample the device; publish the pose (model frame) on `tool`; take the newest
 /// `feedback`; render and command the force. A device error ends the loop (the error is in
 /// the report, the core is untouched). Safety events go to `events` without blocking.
+///
+/// The device's limits are held to its class ceilings ([`within_ceilings`]) before anything
+/// is rendered; a pose beyond the workspace radius is a fault (force fades to zero, no tool
+/// command); a device call longer than [`DEVICE_CALL_LIMIT_NS`] is a fault (force restarts
+/// from zero). With `watch`, every device call is stamped on it, so that another thread can
+/// see a call that blocks (and act while the loop is stuck in it).
 pub fn run_device_loop(
     device: &mut dyn HapticDevice,
     bridge: &Bridge,
     cfg: &HapticsConfig,
     limit: RunLimit<'_>,
     events: Option<&Sender<SafetyEvent>>,
+    watch: Option<&CallWatch>,
 ) -> Result<HapticsReport, HapticsStartError> {
+    let unwatched = CallWatch::new();
+    let watch = watch.unwrap_or(&unwatched);
     let tool = ToolPublisher::create(bridge).map_err(HapticsStartError::Port)?;
     let feedback = FeedbackSubscriber::create(bridge).map_err(HapticsStartError::Port)?;
     let mut lp = FixedRateLoop::try_new(MonotonicClock::new(), cfg.rate_hz, OverrunPolicy::Skip)
         .map_err(|e| HapticsStartError::Rate(e.to_string()))?;
-    let info = device.info().clone();
+    let reported = device.info().clone();
+    let info = &reported;
     let limits_ok = [info.max_force_n, info.max_stiffness_n_per_m, info.max_damping_n_s_per_m]
         .iter()
         .all(|v| v.is_finite() && *v >= 0.0)
-        && info.max_force_n > 0.0;
+        && info.max_force_n > 0.0
+        && info.workspace_radius_m.is_finite()
+        && info.workspace_radius_m > 0.0;
     if !limits_ok {
         return Err(HapticsStartError::DeviceLimits(format!(
-            "'{}' reports max force {} N, stiffness {} N/m, damping {} N s/m",
-            info.name, info.max_force_n, info.max_stiffness_n_per_m, info.max_damping_n_s_per_m
+            "'{}' reports max force {} N, stiffness {} N/m, damping {} N s/m, workspace {} m",
+            info.name,
+            info.max_force_n,
+            info.max_stiffness_n_per_m,
+            info.max_damping_n_s_per_m,
+            info.workspace_radius_m
         )));
     }
+    let (info, limit_clamps) = within_ceilings(&reported);
+    let device_class = crate::device::DeviceClass::of(&info.name).name;
     let mut limits = RenderLimits::for_device(&info, lp.period_ns());
-    if let Some(cap) = cfg.max_force_n.filter(|c| c.is_finite() && *c > 0.0) {
-        limits.max_force_n = limits.max_force_n.min(cap);
+    if let Some(cap) = cfg.max_force_n {
+        check_force_cap(cap, limits.max_force_n).map_err(HapticsStartError::ForceCap)?;
+        limits.max_force_n = cap;
     }
     let mut renderer = ForceRenderer::new(limits, cfg.mapping);
     let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(lp.period_ns()));
@@ -142,15 +193,38 @@ pub fn run_device_loop(
             dropped += 1;
         }
     };
+    let workspace_radius_m = limits.workspace_radius_m;
+    // Each device call, stamped on `watch`; one that takes longer than the limit is a fault.
+    let timed = |call: DeviceCall| {
+        let start = now_ns();
+        watch.begin(call, start);
+        start
+    };
+    let done = |renderer: &mut ForceRenderer, call: DeviceCall, start: u64| -> Option<SafetyEventKind> {
+        let end = now_ns();
+        watch.end();
+        let took = end.saturating_sub(start);
+        (took > DEVICE_CALL_LIMIT_NS).then(|| {
+            renderer.device_call_stalled(end);
+            SafetyEventKind::DeviceCallStalled { call, duration_ns: took, limit_ns: DEVICE_CALL_LIMIT_NS }
+        })
+    };
     lp.run(limit, &mut monitor, |info| {
-        let state = match device.read() {
+        let start = timed(DeviceCall::Read);
+        let read = device.read();
+        if let Some(kind) = done(&mut renderer, DeviceCall::Read, start) {
+            emit(info.tick, kind);
+        }
+        let state = match read {
             Ok(s) => s,
             Err(e) => {
                 device_error = Some(e);
                 return ControlFlow::Break(());
             }
         };
-        let pose_ok = state.position_m.iter().chain(state.orientation.iter()).all(|v| v.is_finite());
+        // A pose beyond the workspace is a fault: no tool command (the renderer fades the force).
+        let pose_ok = state.position_m.iter().chain(state.orientation.iter()).all(|v| v.is_finite())
+            && norm3(state.position_m) <= workspace_radius_m;
         if pose_ok {
             let cmd = ToolCommand {
                 sequence: commands_sent,
@@ -181,12 +255,18 @@ pub fn run_device_loop(
             Ok(None) => {}
             Err(_) => port_failures += 1,
         }
-        let position = if pose_ok { state.position_m } else { [f64::NAN; 3] };
+        let finite = state.position_m.iter().chain(state.orientation.iter()).all(|v| v.is_finite());
+        let position = if finite { state.position_m } else { [f64::NAN; 3] };
         let (out, event) = renderer.render_with_event(position, now_ns());
         if let Some(kind) = event {
             emit(info.tick, kind);
         }
-        if let Err(e) = device.write_force(out.force_n) {
+        let start = timed(DeviceCall::WriteForce);
+        let wrote = device.write_force(out.force_n);
+        if let Some(kind) = done(&mut renderer, DeviceCall::WriteForce, start) {
+            emit(info.tick, kind);
+        }
+        if let Err(e) = wrote {
             device_error = Some(e);
             return ControlFlow::Break(());
         }
@@ -194,8 +274,7 @@ pub fn run_device_loop(
         if let Some(p) = fresh_publish_ns {
             let _ = latency.record(written.saturating_sub(p).max(1));
         }
-        let n = (out.force_n[0].powi(2) + out.force_n[1].powi(2) + out.force_n[2].powi(2)).sqrt();
-        max_force = max_force.max(n);
+        max_force = max_force.max(norm3(out.force_n));
         if trace.len() < trace.capacity() {
             trace.push(TraceRow {
                 time_ns: written,
@@ -209,7 +288,9 @@ pub fn run_device_loop(
         ControlFlow::Continue(())
     });
     // Leave the device at rest whatever happened (a vanished device may refuse).
+    watch.begin(DeviceCall::WriteForce, now_ns());
     let _ = device.write_force([0.0; 3]);
+    watch.end();
     let mut safety = renderer.counts;
     safety.events_dropped = dropped;
     Ok(HapticsReport {
@@ -220,6 +301,8 @@ pub fn run_device_loop(
         port_failures,
         max_force_n: max_force,
         limits,
+        device_class,
+        limit_clamps,
         trace,
         device_error,
     })

@@ -13,6 +13,9 @@
 //! 3. [`run_device_loop`] runs it on absolute deadlines with a deadline monitor, and measures
 //!    core-to-device latency.
 //! 4. [`SafetyEvent`]s leave the loop over a bounded channel to be logged elsewhere.
+//! 5. Whatever a device reports, its limits are held to the ceilings of its class
+//!    ([`device::within_ceilings`]); a pose beyond its workspace and a device call longer than
+//!    [`watchdog::DEVICE_CALL_LIMIT_NS`] are faults that take the force to zero.
 //!
 //! Vendor devices plug in as shared libraries built against the C header
 //! `haptics/include/lamina_device.h` (example: `haptics/plugins/sim_device.c`), loaded by
@@ -28,8 +31,9 @@ mod mapping;
 mod renderer;
 pub mod run_context;
 mod safety;
+pub mod watchdog;
 
-pub use device_loop::{HapticsConfig, HapticsReport, HapticsStartError, TraceRow, run_device_loop};
+pub use device_loop::{HapticsConfig, HapticsReport, HapticsStartError, TraceRow, check_force_cap, run_device_loop};
 pub use mapping::DeviceMapping;
 pub use renderer::{ForceRenderer, RenderLimits, RenderedForce};
 pub use safety::{SafetyCounts, SafetyEvent, SafetyEventKind};

@@ -7,16 +7,20 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
 use clap::Parser;
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_haptics::core_model::wait_for_core_model;
-use lamina_haptics::device::{DeviceError, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory};
+use lamina_haptics::device::{
+    DeviceError, EmergencyStop, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory, within_ceilings,
+};
 use lamina_haptics::run_context::{ModelSeen, RunContext, SceneFile, TopologyWatch};
-use lamina_haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, run_device_loop};
-use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler};
+use lamina_haptics::watchdog::{CallWatch, DEVICE_CALL_LIMIT_NS};
+use lamina_haptics::{DeviceMapping, HapticsConfig, HapticsReport, SafetyEvent, check_force_cap, run_device_loop};
+use lamina_rt::{RealtimeRequest, RealtimeSetup, RunLimit, install_stop_handler, now_ns};
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
@@ -37,8 +41,9 @@ struct Args {
     /// Device loop rate, Hz.
     #[arg(long, default_value_t = 4000)]
     rate_hz: u32,
-    /// Run time, s; default: a scripted device's trajectory length plus 0.2 s, else until
-    /// SIGINT/SIGTERM.
+    /// Run time, s, above 0 and at most 1e9; default: a scripted device's trajectory length
+    /// plus 0.2 s, else until SIGINT/SIGTERM. Honoured even if a device call blocks: the
+    /// process then exits with code 3 at this time.
     #[arg(long)]
     seconds: Option<f64>,
     /// Model position of the device's workspace centre, m, as `x,y,z`, with the device's
@@ -47,14 +52,15 @@ struct Args {
     /// waited for up to --wait-core-s.
     #[arg(long, value_parser = parse_vec3)]
     origin: Option<[f64; 3]>,
-    /// How long to wait for the core's model when --origin is not given, s.
+    /// How long to wait for the core's model when --origin is not given, s (0 to 86400).
     #[arg(long, default_value_t = 30.0)]
     wait_core_s: f64,
     /// Tool tip radius sent to the core, m; 0 uses the scene's.
     #[arg(long, default_value_t = 0.0)]
     tool_radius: f64,
-    /// Cap on the force, N, below the device's own limit.
-    #[arg(long)]
+    /// Cap on the force, N: above 0 and at most the device's limit (its reported limit held to
+    /// its class ceiling, printed at start); any other value is refused.
+    #[arg(long, allow_negative_numbers = true)]
     max_force: Option<f64>,
     /// Write the JSON report here.
     #[arg(long)]
@@ -95,14 +101,30 @@ fn open_device(spec: &str, args: &str) -> Result<(Box<dyn HapticDevice>, Option<
     if spec == "null" {
         return Ok((Box::new(NullDevice::default()), None));
     }
-    if let Some(path) = spec.strip_prefix("scripted:") {
-        return open_scripted(Path::new(path), args).map_err(|e| e.to_string());
+    let path_of = |kind: &str, example: &str| match spec.strip_prefix(kind) {
+        Some("") => Err(format!("--device '{kind}': no file after '{kind}' (expected {kind}{example})")),
+        Some(path) => Ok(Some(Path::new(path))),
+        None => Ok(None),
+    };
+    if let Some(path) = path_of("scripted:", "FILE.csv")? {
+        return open_scripted(path, args).map_err(|e| e.to_string());
     }
-    if let Some(path) = spec.strip_prefix("plugin:") {
-        return open_plugin(Path::new(path), args).map_err(|e| e.to_string());
+    if let Some(path) = path_of("plugin:", "PATH/TO/LIB.so")? {
+        return open_plugin(path, args).map_err(|e| e.to_string());
     }
     Err(format!("unknown device '{spec}': use null, scripted:FILE.csv or plugin:LIB.so"))
 }
+
+/// `v` as a user reads it: scientific notation beyond six digits.
+fn show(v: f64) -> String {
+    lamina_haptics::device::show_number(v)
+}
+
+/// Longest --wait-core-s, s: one day.
+const MAX_WAIT_CORE_S: f64 = 86_400.0;
+
+/// Longest --seconds, s (as `lamina run`).
+const MAX_RUN_S: f64 = 1e9;
 
 /// Longest run --trace-csv keeps, s: ten minutes.
 const TRACE_SECONDS: f64 = 600.0;
@@ -193,6 +215,20 @@ fn print_report(r: &HapticsReport, rate_hz: u32, device: &str) {
         c.quiet_episodes,
         c.events_dropped
     );
+    println!(
+        "  faults: poses beyond the {} m workspace {} in {} fault(s); device calls over {:.0} ms {}",
+        r.limits.workspace_radius_m,
+        c.workspace_fault_ticks,
+        c.workspace_faults,
+        DEVICE_CALL_LIMIT_NS as f64 / 1e6,
+        c.device_call_stalls
+    );
+    let clamps: Vec<String> = r.limit_clamps.iter().map(ToString::to_string).collect();
+    println!(
+        "  device class {}: {}",
+        r.device_class,
+        if clamps.is_empty() { "reported limits within its ceilings".to_string() } else { clamps.join("; ") }
+    );
     println!("  tool commands sent {}, port failures {}", r.commands_sent, r.port_failures);
 }
 
@@ -231,7 +267,13 @@ fn report_json(r: &HapticsReport, c: &ReportContext) -> serde_json::Value {
             "max_stiffness_n_per_m": r.limits.max_stiffness_n_per_m,
             "damping_n_s_per_m": r.limits.damping_n_s_per_m,
             "zero_after_ns": r.limits.zero_after_ns(),
+            "workspace_radius_m": r.limits.workspace_radius_m,
+            "device_call_limit_ns": DEVICE_CALL_LIMIT_NS,
         },
+        "device_class": r.device_class,
+        "limit_clamps": r.limit_clamps.iter().map(|c| serde_json::json!({
+            "limit": c.limit, "unit": c.unit, "reported": c.reported, "ceiling": c.ceiling,
+        })).collect::<Vec<_>>(),
         "commands_sent": r.commands_sent,
         "port_failures": r.port_failures,
         "device_error": r.device_error.as_ref().map(|e| e.to_string()),
@@ -267,9 +309,7 @@ fn write_trace(r: &HapticsReport, path: &Path) -> std::io::Result<()> {
 
 /// The mapping the core's model message carries; says what it uses.
 fn device_mapping_from_core(args: &Args, bridge: &Bridge) -> anyhow::Result<DeviceMapping> {
-    if !(args.wait_core_s.is_finite() && args.wait_core_s >= 0.0) {
-        bail!("--wait-core-s {}: must be a finite number of seconds, 0 or more", args.wait_core_s);
-    }
+    // Bounded by `check_options`.
     let wait = std::time::Duration::from_secs_f64(args.wait_core_s);
     let model = wait_for_core_model(bridge, &args.prefix, wait, &STOP)?;
     let m = model.mapping();
@@ -285,18 +325,133 @@ fn device_mapping_from_core(args: &Args, bridge: &Bridge) -> anyhow::Result<Devi
     Ok(m)
 }
 
+/// Checks the options that do not depend on the device or the core.
+fn check_options(args: &Args) -> anyhow::Result<()> {
+    if let Some(s) = args.seconds
+        && !(s > 0.0 && s <= MAX_RUN_S)
+    {
+        bail!("--seconds {}: must be a number of seconds above 0 and at most {MAX_RUN_S:e}", show(s));
+    }
+    if !(0.0..=MAX_WAIT_CORE_S).contains(&args.wait_core_s) {
+        bail!(
+            "--wait-core-s {}: must be a number of seconds from 0 to {MAX_WAIT_CORE_S} (one day)",
+            show(args.wait_core_s)
+        );
+    }
+    Ok(())
+}
+
+/// Says which of the device's reported limits its class ceilings lowered, and checks
+/// --max-force against the limit in force.
+fn check_limits(args: &Args, device: &dyn HapticDevice) -> anyhow::Result<()> {
+    let (held, clamps) = within_ceilings(device.info());
+    let name = &device.info().name;
+    for clamp in &clamps {
+        tracing::warn!("haptic device '{name}': {clamp}");
+    }
+    if let Some(cap) = args.max_force {
+        check_force_cap(cap, held.max_force_n)
+            .map_err(|e| anyhow::anyhow!("--max-force {e}, for haptic device '{name}'"))?;
+    }
+    Ok(())
+}
+
+/// Watches the device loop's calls from a thread of its own: a call blocked longer than
+/// [`DEVICE_CALL_LIMIT_NS`] is reported and the device's emergency stop called; if the call
+/// is still blocked when the run should end (`deadline_ns`, or a stop signal), the process
+/// exits with code 3, since the loop cannot.
+struct Watchdog {
+    finished: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+impl Watchdog {
+    fn start(
+        watch: Arc<CallWatch>,
+        stop: Option<Arc<dyn EmergencyStop>>,
+        device: String,
+        deadline_ns: Option<u64>,
+    ) -> Self {
+        let finished = Arc::new(AtomicBool::new(false));
+        let done = finished.clone();
+        let thread = std::thread::spawn(move || {
+            let mut reported = None;
+            while !done.load(Ordering::Acquire) {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+                let now = now_ns();
+                let Some(stall) = watch.blocked(now, DEVICE_CALL_LIMIT_NS) else { continue };
+                if reported != Some(stall.started_ns) {
+                    reported = Some(stall.started_ns);
+                    let action = match &stop {
+                        Some(s) => {
+                            s.zero_force();
+                            "emergency stop sent (zero force)"
+                        }
+                        None => {
+                            "the device has no emergency stop: it holds its last command until its own watchdog acts"
+                        }
+                    };
+                    tracing::error!(
+                        "haptics: device '{device}' call {} has not returned after {:.1} ms (limit {:.0} ms): fault; {action}",
+                        stall.call,
+                        stall.blocked_ns as f64 / 1e6,
+                        DEVICE_CALL_LIMIT_NS as f64 / 1e6
+                    );
+                }
+                let ended = deadline_ns.is_some_and(|d| now >= d) || STOP.load(Ordering::Relaxed);
+                if ended && !done.load(Ordering::Acquire) {
+                    tracing::error!(
+                        "haptics: device '{device}' still blocked in {} after {:.3} s; the run is over: exiting without a report (code 3)",
+                        stall.call,
+                        stall.blocked_ns as f64 / 1e9
+                    );
+                    std::process::exit(3);
+                }
+            }
+        });
+        Self { finished, thread }
+    }
+
+    /// The loop returned: stop watching.
+    fn finish(self) {
+        self.finished.store(true, Ordering::Release);
+        let _ = self.thread.join();
+    }
+}
+
+/// Ends the process (code 2) if opening the device has not returned by the end of the run
+/// (`--seconds`): a plugin's `lamina_device_open` that blocks must not outlast it.
+fn guard_open(seconds: Option<f64>, device: &str) -> Arc<AtomicBool> {
+    let opened = Arc::new(AtomicBool::new(false));
+    if let Some(s) = seconds {
+        let (done, device) = (opened.clone(), device.to_string());
+        let deadline = now_ns().saturating_add((s * 1e9) as u64);
+        std::thread::spawn(move || {
+            while !done.load(Ordering::Acquire) {
+                if now_ns() >= deadline {
+                    eprintln!(
+                        "lamina-haptics: haptic device '{device}': opening it has not returned within --seconds {s}: exiting"
+                    );
+                    std::process::exit(2);
+                }
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+        });
+    }
+    opened
+}
+
 fn run(args: &Args) -> anyhow::Result<bool> {
-    let (mut device, script_s) = open_device(&args.device, &args.device_args)
-        .map_err(anyhow::Error::msg)
-        .with_context(|| format!("haptic device '{}'", args.device))?;
+    check_options(args)?;
+    let opened = guard_open(args.seconds, &args.device);
+    let device = open_device(&args.device, &args.device_args);
+    opened.store(true, Ordering::Release);
+    let (mut device, script_s) =
+        device.map_err(anyhow::Error::msg).with_context(|| format!("haptic device '{}'", args.device))?;
+    check_limits(args, device.as_ref())?;
     let scene = args.scene.as_deref().map(SceneFile::read).transpose()?;
     let context = RunContext::start(scene);
     let seconds = args.seconds.or(script_s.map(|s| s + 0.2));
-    if let Some(s) = seconds
-        && !(s.is_finite() && s > 0.0)
-    {
-        bail!("--seconds must be positive");
-    }
     let bridge = Bridge::open(&BridgeConfig::with_prefix(&args.prefix)).context("bridge")?;
     let _ = install_stop_handler(&STOP);
     let mapping = match args.origin {
@@ -309,11 +464,17 @@ fn run(args: &Args) -> anyhow::Result<bool> {
         let mut first: Option<u64> = None;
         for ev in rx {
             let t0 = *first.get_or_insert(ev.time_ns);
-            if !quiet {
+            // Faults are said even with --quiet.
+            if !quiet || ev.kind.is_fault() {
                 tracing::warn!("haptics: [{:>9.3} ms, tick {}] {}", (ev.time_ns - t0) as f64 / 1e6, ev.tick, ev.kind);
             }
         }
     });
+    // Started before the real-time setup, so that it is neither pinned with the loop nor
+    // SCHED_FIFO: it runs while the loop's thread is stuck in a device call.
+    let watch = Arc::new(CallWatch::new());
+    let deadline_ns = seconds.map(|s| now_ns().saturating_add((s * 1e9) as u64));
+    let watchdog = Watchdog::start(watch.clone(), device.emergency_stop(), device.info().name.clone(), deadline_ns);
     let mut request = RealtimeRequest::new();
     request.cpu = args.cpu;
     if args.fifo > 0 {
@@ -340,9 +501,10 @@ fn run(args: &Args) -> anyhow::Result<bool> {
         Some(s) => RunLimit::duration_ns((s * 1e9) as u64).and_stop_flag(&STOP),
         None => RunLimit::until_stopped(&STOP),
     };
-    let watch = TopologyWatch::start(&args.prefix);
-    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx));
-    let model = watch.finish();
+    let topology = TopologyWatch::start(&args.prefix);
+    let report = run_device_loop(device.as_mut(), &bridge, &cfg, limit, Some(&tx), Some(&watch));
+    watchdog.finish();
+    let model = topology.finish();
     let report = report?;
     drop(tx);
     let _ = logger.join();

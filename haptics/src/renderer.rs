@@ -2,7 +2,7 @@
 
 use super::mapping::DeviceMapping;
 use super::safety::{SafetyCounts, SafetyEventKind};
-use crate::device::DeviceInfo;
+use crate::device::{DeviceInfo, norm3};
 use lamina_bridge::wire::ContactFeedback;
 
 /// How the renderer keeps the device stable and the operator safe.
@@ -26,6 +26,9 @@ pub struct RenderLimits {
     pub fade_ns: u64,
     /// When feedback starts (or resumes), the force ramps in over this, ns. Default 20 ms.
     pub onset_ns: u64,
+    /// A handle farther than this from the workspace centre is a fault, m. Default: the
+    /// device's `workspace_radius_m`.
+    pub workspace_radius_m: f64,
 }
 
 impl RenderLimits {
@@ -39,6 +42,7 @@ impl RenderLimits {
             quiet_after_ns: 3_000_000,
             fade_ns: 1_500_000,
             onset_ns: 20_000_000,
+            workspace_radius_m: info.workspace_radius_m,
         }
     }
 
@@ -119,6 +123,10 @@ pub struct ForceRenderer {
     was_clamped: bool,
     previous: Option<([f64; 3], u64)>,
     velocity: [f64; 3],
+    /// Force of the previous tick, N (what a fault fades from).
+    last_force: [f64; 3],
+    /// Since when the pose is outside the workspace, and the force it fades from.
+    outside: Option<(u64, [f64; 3])>,
     /// How often each safety measure acted.
     pub counts: SafetyCounts,
 }
@@ -128,10 +136,6 @@ const VELOCITY_CUTOFF_HZ: f64 = 100.0;
 
 fn finite3(v: &[f64; 3]) -> bool {
     v.iter().all(|c| c.is_finite())
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 impl ForceRenderer {
@@ -147,6 +151,8 @@ impl ForceRenderer {
             was_clamped: false,
             previous: None,
             velocity: [0.0; 3],
+            last_force: [0.0; 3],
+            outside: None,
             counts: SafetyCounts::default(),
         }
     }
@@ -212,13 +218,61 @@ impl ForceRenderer {
         self.render_with_event(x_dev, now_ns).0
     }
 
+    /// A device call took longer than the limit at `now_ns`: counted, and the force restarts
+    /// from zero, ramping in over `onset_ns` (the handle may have moved meanwhile).
+    pub fn device_call_stalled(&mut self, now_ns: u64) {
+        self.counts.device_call_stalls += 1;
+        self.previous = None;
+        if self.last_feedback_ns.is_some() {
+            self.live_since_ns = Some(now_ns);
+        }
+    }
+
     /// As [`render`](Self::render), also returning the event to log (transitions only).
     pub fn render_with_event(&mut self, x_dev: [f64; 3], now_ns: u64) -> (RenderedForce, Option<SafetyEventKind>) {
+        let (out, event) = self.render_checked(x_dev, now_ns);
+        self.last_force = out.force_n;
+        (out, event)
+    }
+
+    /// A pose beyond the workspace at `now_ns`: the previous force fades to zero over
+    /// `fade_ns` from the first such tick.
+    fn outside_workspace(&mut self, distance_m: f64, now_ns: u64) -> (RenderedForce, Option<SafetyEventKind>) {
+        self.counts.workspace_fault_ticks += 1;
+        self.previous = None;
+        let mut event = None;
+        let (since, from) = match self.outside {
+            Some(fault) => fault,
+            None => {
+                self.counts.workspace_faults += 1;
+                event =
+                    Some(SafetyEventKind::OutsideWorkspace { distance_m, radius_m: self.limits.workspace_radius_m });
+                let fault = (now_ns, self.last_force);
+                self.outside = Some(fault);
+                fault
+            }
+        };
+        let left = 1.0 - now_ns.saturating_sub(since) as f64 / self.limits.fade_ns.max(1) as f64;
+        let gain = left.clamp(0.0, 1.0);
+        (RenderedForce { force_n: from.map(|c| c * gain), gain, ..RenderedForce::default() }, event)
+    }
+
+    fn render_checked(&mut self, x_dev: [f64; 3], now_ns: u64) -> (RenderedForce, Option<SafetyEventKind>) {
         let mut event = None;
         if !finite3(&x_dev) {
             self.counts.device_pose_non_finite += 1;
             self.previous = None;
             return (RenderedForce::default(), Some(SafetyEventKind::NonFiniteDevicePose));
+        }
+        let distance = norm3(x_dev);
+        if distance.is_nan() || distance > self.limits.workspace_radius_m {
+            return self.outside_workspace(distance, now_ns);
+        }
+        if self.outside.take().is_some() {
+            event = Some(SafetyEventKind::WorkspaceBack);
+            if self.last_feedback_ns.is_some() {
+                self.live_since_ns = Some(now_ns);
+            }
         }
         // Handle velocity, low-passed (for the coupling damping).
         if let Some((p, t)) = self.previous
@@ -280,7 +334,7 @@ impl ForceRenderer {
                 Some(SafetyEventKind::NonFiniteForce),
             );
         }
-        let n = norm(f);
+        let n = norm3(f);
         let clamped = n > self.limits.max_force_n;
         if clamped {
             let s = self.limits.max_force_n / n;

@@ -36,6 +36,34 @@ pub enum SafetyEventKind {
     },
     /// Feedback is flowing again after a quiet period (force ramps back in).
     CoreBack,
+    /// The device reported a pose beyond its workspace: a sensor or plugin fault. The force
+    /// fades to zero and no tool command is sent until the pose is back inside.
+    OutsideWorkspace {
+        /// Distance of the pose from the workspace centre, m.
+        distance_m: f64,
+        /// The workspace radius in force, m.
+        radius_m: f64,
+    },
+    /// The pose is back inside the workspace (force ramps back in).
+    WorkspaceBack,
+    /// A device call took longer than the limit: a fault. The force restarts from zero and
+    /// ramps back in.
+    DeviceCallStalled {
+        /// Which call.
+        call: crate::watchdog::DeviceCall,
+        /// How long it took, ns.
+        duration_ns: u64,
+        /// The limit, ns.
+        limit_ns: u64,
+    },
+}
+
+impl SafetyEventKind {
+    /// Whether it is a device fault (a pose beyond the workspace, a call that stalled): said
+    /// on stderr even when other events are not.
+    pub fn is_fault(&self) -> bool {
+        matches!(self, Self::OutsideWorkspace { .. } | Self::DeviceCallStalled { .. })
+    }
 }
 
 impl core::fmt::Display for SafetyEventKind {
@@ -51,6 +79,17 @@ impl core::fmt::Display for SafetyEventKind {
                 write!(f, "core quiet for {:.2} ms: force faded to zero", *age_ns as f64 / 1e6)
             }
             Self::CoreBack => write!(f, "core feedback back: force ramps in"),
+            Self::OutsideWorkspace { distance_m, radius_m } => write!(
+                f,
+                "device pose {distance_m:.3e} m from the workspace centre, beyond its {radius_m} m radius: fault, force fades to zero, no tool command"
+            ),
+            Self::WorkspaceBack => write!(f, "device pose back inside the workspace: force ramps in"),
+            Self::DeviceCallStalled { call, duration_ns, limit_ns } => write!(
+                f,
+                "device call {call} took {:.2} ms (limit {:.0} ms): fault, force restarts from zero",
+                *duration_ns as f64 / 1e6,
+                *limit_ns as f64 / 1e6
+            ),
         }
     }
 }
@@ -74,6 +113,12 @@ pub struct SafetyCounts {
     pub quiet_ticks: u64,
     /// Quiet episodes (transitions from live to quiet).
     pub quiet_episodes: u64,
+    /// Ticks whose device pose lay beyond the workspace radius.
+    pub workspace_fault_ticks: u64,
+    /// Workspace faults (transitions from inside to outside).
+    pub workspace_faults: u64,
+    /// Device calls (read or write) that took longer than the limit.
+    pub device_call_stalls: u64,
     /// Events the logger channel could not take (counted here, not lost from the counters).
     pub events_dropped: u64,
 }

@@ -3,43 +3,15 @@
 //! plain C), loaded with `PluginDevice`, and driven. The simulated handle is a 0.1 kg mass on a
 //! 50 N/m spring to the origin, stepped 1 ms per read, so a constant force F settles it at F/k.
 
-use lamina_haptics::device::{DEVICE_ABI_VERSION, DeviceError, HapticDevice, PluginDevice};
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{build_plugin, plugin};
+use lamina_haptics::device::{DEVICE_ABI_VERSION, DeviceError, HapticDevice, PluginDevice, within_ceilings};
+use std::path::Path;
 use std::process::Command;
-use std::sync::OnceLock;
 
 /// The simulated handle's spring, N/m (sim_device.c's SIM_SPRING).
 const SPRING: f64 = 50.0;
-
-fn manifest() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Compiles a variant of the test plugin (`defines` like `-DLAMINA_SIM_BAD_ABI`).
-fn build_plugin(tag: &str, defines: &[&str]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lamina_plugin_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join(format!("libsim_{tag}.so"));
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    let status = Command::new(&cc)
-        .args(["-shared", "-fPIC", "-O2", "-Wall", "-Werror"])
-        .arg("-I")
-        .arg(manifest().join("include"))
-        .args(defines)
-        .arg("-o")
-        .arg(&out)
-        .arg(manifest().join("plugins/sim_device.c"))
-        .arg("-lm")
-        .status()
-        .unwrap_or_else(|e| panic!("no C compiler '{cc}' to build the test plugin: {e}"));
-    assert!(status.success(), "compiling the test plugin failed");
-    out
-}
-
-fn plugin() -> &'static Path {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| build_plugin("ok", &[]))
-}
 
 /// Reads `n` times with `force` held, returns the last position.
 fn settle(d: &mut PluginDevice, force: [f64; 3], n: usize) -> [f64; 3] {
@@ -168,4 +140,42 @@ fn haptics_process_without_core_or_origin_names_the_prefix_fails() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--wait-core-s"), "{err}");
+}
+
+#[test]
+fn plugin_reporting_huge_limits_is_held_to_its_class_ceiling_works() {
+    let mut d = PluginDevice::load(plugin(), "huge_limits").unwrap();
+    assert_eq!(d.info().max_force_n, 1e308, "the plugin's own report is kept for the record");
+    let (held, clamps) = within_ceilings(d.info());
+    // "lamina simulated device" is in no listed class: the unlisted ceilings hold.
+    assert_eq!((held.max_force_n, held.max_stiffness_n_per_m, held.max_damping_n_s_per_m), (12.0, 5000.0, 30.0));
+    let named: Vec<String> = clamps.iter().map(ToString::to_string).collect();
+    assert_eq!(named.len(), 3, "{named:?}");
+    assert!(named[0].contains("max force 1e308 N reported") && named[0].contains("12 N used"), "{named:?}");
+    // A 1e308 N command (its square overflows) reaches the device as the 12 N ceiling: 12/50 m.
+    let x = settle(&mut d, [0.0, 1e308, 0.0], 3000);
+    assert!((x[1] - 12.0 / SPRING).abs() < 1e-6, "{x:?}");
+}
+
+#[test]
+fn plugin_with_an_empty_path_is_refused_naming_it_fails() {
+    match PluginDevice::load(Path::new(""), "") {
+        Err(DeviceError::PluginLoad { detail, .. }) => assert!(detail.contains("no library path"), "{detail}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn plugin_emergency_stop_zeroes_the_force_from_another_thread_works() {
+    let mut d = PluginDevice::load(plugin(), "").unwrap();
+    let x = settle(&mut d, [0.0, 2.0, 0.0], 3000);
+    assert!((x[1] - 2.0 / SPRING).abs() < 1e-6, "{x:?}");
+    let stop = d.emergency_stop().expect("the test plugin has lamina_device_emergency_stop");
+    std::thread::spawn(move || stop.zero_force()).join().unwrap();
+    // No force written since: the handle goes back to its spring's rest, the origin.
+    let mut x = [1.0; 3];
+    for _ in 0..3000 {
+        x = d.read().unwrap().position_m;
+    }
+    assert!(x[1].abs() < 1e-6, "{x:?}");
 }

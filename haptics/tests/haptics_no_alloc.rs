@@ -141,7 +141,7 @@ fn haptics_device_loop_allocates_only_iceoryx2_loans_after_warm_up_works() {
         ..HapticsConfig::default()
     };
     let (tx, rx) = crossbeam::channel::bounded(64);
-    let report = run_device_loop(&mut device, &bridge, &cfg, RunLimit::ticks(3000), Some(&tx)).unwrap();
+    let report = run_device_loop(&mut device, &bridge, &cfg, RunLimit::ticks(3000), Some(&tx), None).unwrap();
     stop.store(true, Ordering::Relaxed);
     core.join().unwrap();
     drop(rx);

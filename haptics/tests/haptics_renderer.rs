@@ -3,7 +3,7 @@
 //! and the energy of a simulated handle bouncing on a rendered wall.
 
 use lamina_bridge::wire::ContactFeedback;
-use lamina_haptics::device::DeviceInfo;
+use lamina_haptics::device::{DeviceInfo, within_ceilings};
 use lamina_haptics::{DeviceMapping, ForceRenderer, RenderLimits, SafetyEventKind};
 
 const MS: u64 = 1_000_000;
@@ -227,4 +227,114 @@ fn renderer_wall_with_late_core_ticks_is_passive_works() {
     assert!(touched, "the handle reached the wall");
     assert!(max_e <= e0 * 1.02, "energy grew from {e0:.6} J to {max_e:.6} J: the rendering is not passive");
     assert!(z > -0.01, "the handle did not fall through the wall: z = {z} m");
+}
+
+/// A device that reports 1e308 N, N/m and N s/m (a lying plugin) pressing 8 mm into a wall
+/// of 1e6 N/m, moving at 4 cm/s: every force rendered is finite and at most the ceiling of
+/// the device's class (3.3 N for a PHANTOM Omni), and the press reaches it.
+#[test]
+fn renderer_with_huge_reported_limits_holds_an_8mm_press_to_the_class_ceiling_works() {
+    let lying = DeviceInfo {
+        name: "SensAble PHANTOM Omni".into(),
+        max_force_n: 1e308,
+        max_stiffness_n_per_m: 1e308,
+        max_damping_n_s_per_m: 1e308,
+        workspace_radius_m: 0.08,
+    };
+    let (held, clamps) = within_ceilings(&lying);
+    assert_eq!(
+        clamps.iter().map(|c| (c.limit, c.reported, c.ceiling)).collect::<Vec<_>>(),
+        [("max force", 1e308, 3.3), ("max stiffness", 1e308, 700.0), ("max damping", 1e308, 5.0)]
+    );
+    let limits = RenderLimits { onset_ns: 0, ..RenderLimits::for_device(&held, PERIOD_NS) };
+    let map = DeviceMapping::y_up_model([0.0; 3]);
+    let mut r = ForceRenderer::new(limits, map);
+    let k_wall = 1e6;
+    let mut max_f: f64 = 0.0;
+    // From 2 mm above the wall down to 8 mm into it at 4 cm/s (1e-5 m per 250 us tick), then
+    // held for 100 ticks; the core linearises at the handle every 4 ticks (1 kHz).
+    for tick in 0..1100u64 {
+        let t = tick * PERIOD_NS;
+        let z = (0.002 - 1e-5 * tick as f64).max(-0.008);
+        if tick.is_multiple_of(4) {
+            let pen = (-z).max(0.0);
+            let mut fb = ContactFeedback { in_contact: u32::from(pen > 0.0), ..Default::default() };
+            fb.x_ref = map.to_model([0.0, 0.0, z]);
+            fb.force = [0.0, k_wall * pen, 0.0];
+            fb.stiffness[1][1] = if pen > 0.0 { -k_wall } else { 0.0 };
+            r.accept_feedback(&fb, t).unwrap();
+        }
+        let f = r.render([0.0, 0.0, z], t).force_n;
+        assert!(f.iter().all(|c| c.is_finite()), "tick {tick}: {f:?}");
+        max_f = max_f.max(norm(f));
+    }
+    assert!(max_f <= 3.3 + 1e-12, "an 8 mm press commanded {max_f} N, above the 3.3 N ceiling");
+    assert!(max_f > 3.3 - 1e-9, "the press (8 kN asked) reaches the ceiling: {max_f} N");
+    assert!(r.counts.stiffness_limited > 0 && r.counts.force_clamped_ticks > 0);
+}
+
+/// A pose beyond the workspace (a sensor fault, 1e300 m) fades the force from its last value
+/// to zero over `fade_ns` (1.5 ms), linearly on the renderer's clock, is reported once, and
+/// the force ramps back in over `onset_ns` when the pose is back inside.
+#[test]
+fn renderer_pose_beyond_workspace_fades_the_force_to_zero_works() {
+    let limits = RenderLimits { onset_ns: 2 * MS, ..RenderLimits::for_device(&device(), PERIOD_NS) };
+    let mut r = ForceRenderer::new(limits, DeviceMapping::y_up_model([0.1, 0.05, 0.02]));
+    // A constant 2 N push (no stiffness), fed every tick so the core is never quiet.
+    let feed = |r: &mut ForceRenderer, t: u64| r.accept_feedback(&contact(2.0, 0.0), t).unwrap();
+    feed(&mut r, 0);
+    let (t_in, t_fault) = (3 * MS, 3 * MS + PERIOD_NS);
+    feed(&mut r, t_in);
+    assert!((norm(r.render([0.0; 3], t_in).force_n) - 2.0).abs() < 1e-9, "2 N before the fault");
+    let mut events = Vec::new();
+    for k in 0..=8u64 {
+        let t = t_fault + k * PERIOD_NS;
+        feed(&mut r, t);
+        let (out, event) = r.render_with_event([0.0, 0.0, 1e300], t);
+        events.extend(event);
+        // Linear fade over 1.5 ms from the 2 N of the tick before.
+        let want = 2.0 * (1.0 - (k * PERIOD_NS) as f64 / 1.5e6).max(0.0);
+        assert!(
+            (norm(out.force_n) - want).abs() < 1e-9,
+            "{} ms into the fault: {:?}, want {want} N",
+            k as f64 / 4.0,
+            out.force_n
+        );
+    }
+    assert_eq!(events.len(), 1, "{events:?}");
+    assert!(
+        matches!(events[0], SafetyEventKind::OutsideWorkspace { distance_m, radius_m } if distance_m == 1e300 && radius_m == 0.08)
+    );
+    assert_eq!((r.counts.workspace_faults, r.counts.workspace_fault_ticks), (1, 9));
+    // Just beyond the radius is a fault too; just inside is not.
+    let t_back = t_fault + 9 * PERIOD_NS;
+    feed(&mut r, t_back);
+    let (out, event) = r.render_with_event([0.0, 0.0, 0.08], t_back);
+    assert_eq!(event, Some(SafetyEventKind::WorkspaceBack));
+    assert_eq!(out.force_n, [0.0; 3], "the force ramps in from zero");
+    let t_half = t_back + MS;
+    feed(&mut r, t_half);
+    let f = norm(r.render([0.0, 0.0, 0.08], t_half).force_n);
+    assert!((f - 1.0).abs() < 1e-9, "half way through the 2 ms onset ramp: {f} N");
+    let t_out = t_half + PERIOD_NS;
+    feed(&mut r, t_out);
+    let (_, event) = r.render_with_event([0.0, 0.0, 0.08 + 1e-9], t_out);
+    assert!(matches!(event, Some(SafetyEventKind::OutsideWorkspace { .. })));
+    assert_eq!(r.counts.workspace_faults, 2);
+}
+
+/// A device call that took too long restarts the force from zero (onset ramp), counted.
+#[test]
+fn renderer_device_call_stall_restarts_the_force_from_zero_works() {
+    let limits = RenderLimits { onset_ns: 4 * MS, ..RenderLimits::for_device(&device(), PERIOD_NS) };
+    let mut r = ForceRenderer::new(limits, DeviceMapping::y_up_model([0.1, 0.05, 0.02]));
+    r.accept_feedback(&contact(2.0, 0.0), 0).unwrap();
+    r.accept_feedback(&contact(2.0, 0.0), 5 * MS).unwrap();
+    assert!((norm(r.render([0.0; 3], 5 * MS).force_n) - 2.0).abs() < 1e-9);
+    r.device_call_stalled(5 * MS);
+    assert_eq!(r.counts.device_call_stalls, 1);
+    assert_eq!(r.render([0.0; 3], 5 * MS).force_n, [0.0; 3], "zero right after the stall");
+    r.accept_feedback(&contact(2.0, 0.0), 6 * MS).unwrap();
+    let f = norm(r.render([0.0; 3], 6 * MS).force_n);
+    assert!((f - 0.5).abs() < 1e-9, "a quarter of the 4 ms ramp: {f} N");
 }

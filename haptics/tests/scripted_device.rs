@@ -37,6 +37,10 @@ fn trajectory_malformed_names_line_fails() {
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e12,0,0,0\n", 3, "outside 0 to 86400 s"),
         ("t_s,x_m,y_m,z_m\n0,0,0,0\n1e300,0,0,0\n", 3, "outside 0 to 86400 s"),
         ("t_s,x_m,y_m,z_m\n-1,0,0,0\n", 2, "outside 0 to 86400 s"),
+        // Rows beyond the scripted device's 8 cm reach, up to |z| = 1e308.
+        ("t_s,x_m,y_m,z_m\n0,0,0,0\n1,0,0,1e308\n", 3, "beyond the scripted device's reach of 0.08 m"),
+        ("t_s,x_m,y_m,z_m\n0,0,0,0\n1,0,0,-1e308\n", 3, "1.000e308 m from the workspace centre"),
+        ("t_s,x_m,y_m,z_m\n0,0.06,0.06,0\n", 2, "beyond the scripted device's reach of 0.08 m"),
     ];
     for (text, line, what) in cases {
         match Trajectory::parse(text, "bad.csv") {
@@ -49,6 +53,8 @@ fn trajectory_malformed_names_line_fails() {
             other => panic!("{text:?}: expected a script error, got {other:?}"),
         }
     }
+    // A row at the reach itself, 8 cm along an axis, is accepted.
+    assert!(Trajectory::parse("t_s,x_m,y_m,z_m\n0,0,0,0.08\n1,0,-0.08,0\n", "edge.csv").is_ok());
     let missing = Trajectory::load(std::path::Path::new("/nonexistent/press.csv")).unwrap_err();
     assert!(missing.to_string().contains("/nonexistent/press.csv"), "{missing}");
 }

@@ -37,15 +37,18 @@
 //! # }
 //! ```
 
+mod ceiling;
 mod error;
 mod null;
 mod plugin;
 mod scripted;
 
+pub(crate) use ceiling::norm3;
+pub use ceiling::{DEVICE_CLASSES, DeviceClass, LimitClamp, UNLISTED, show_number, within_ceilings};
 pub use error::DeviceError;
 pub use null::NullDevice;
 pub use plugin::{DEVICE_ABI_VERSION, PluginDevice};
-pub use scripted::{MAX_SCRIPT_S, ScriptedDevice, Trajectory, TrajectoryPoint};
+pub use scripted::{MAX_SCRIPT_S, SCRIPT_REACH_M, ScriptedDevice, Trajectory, TrajectoryPoint};
 
 /// What a device is and what it can safely do.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,10 +86,23 @@ impl Default for DeviceState {
 
 /// A force-feedback device (see the module docs for frame, units and contract).
 pub trait HapticDevice: Send {
-    /// What the device is and its safe limits.
+    /// What the device is and the limits it reports (the haptics process holds them to the
+    /// class ceilings of [`within_ceilings`]).
     fn info(&self) -> &DeviceInfo;
     /// Samples the handle.
     fn read(&mut self) -> Result<DeviceState, DeviceError>;
     /// Commands `force_n` (N, device frame) until the next call.
     fn write_force(&mut self, force_n: [f64; 3]) -> Result<(), DeviceError>;
+    /// A way to zero the force from another thread while a `read` or `write_force` is blocked,
+    /// if the device has one. Default: none.
+    fn emergency_stop(&self) -> Option<std::sync::Arc<dyn EmergencyStop>> {
+        None
+    }
+}
+
+/// Zeroes a device's force from any thread, even while another call on the device is in
+/// progress (a plugin's `lamina_device_emergency_stop`).
+pub trait EmergencyStop: Send + Sync {
+    /// Asks the device for zero force now.
+    fn zero_force(&self);
 }

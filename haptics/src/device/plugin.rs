@@ -3,8 +3,9 @@
 
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
-use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
+use super::{DeviceError, DeviceInfo, DeviceState, EmergencyStop, HapticDevice, norm3, within_ceilings};
 
 /// The ABI version this build of Lamina speaks (`LAMINA_DEVICE_ABI_VERSION`).
 pub const DEVICE_ABI_VERSION: u32 = 1;
@@ -39,28 +40,65 @@ type CloseFn = unsafe extern "C" fn(*mut c_void);
 /// `LAMINA_DEVICE_DISCONNECTED`.
 const DISCONNECTED: c_int = -1;
 
-/// A device driven through a plugin library.
-///
-/// Opened by [`PluginDevice::load`]; closed (zero force, device released) on drop.
-pub struct PluginDevice {
-    info: DeviceInfo,
+type EmergencyStopFn = unsafe extern "C" fn(*mut c_void);
+
+/// The plugin's open device and its functions, shared with the [`EmergencyStop`] handle so
+/// that the device is closed (and the library unloaded) only when neither uses it any more.
+struct Shared {
     device: *mut c_void,
     read: ReadFn,
     write: WriteFn,
     last_error: LastErrorFn,
     close: CloseFn,
-    path: PathBuf,
+    emergency_stop: Option<EmergencyStopFn>,
     // Last field: dropped after `Drop::drop` closed the device through its functions.
     _library: libloading::Library,
 }
 
-// SAFETY: the header requires every call to come from one thread at a time, which `&mut self`
-// methods guarantee; the handle and function pointers may move between threads.
-unsafe impl Send for PluginDevice {}
+// SAFETY: `read`, `write` and `last_error` are called only through `&mut PluginDevice` (one
+// thread at a time, as the header requires); the one function called from another thread is
+// `lamina_device_emergency_stop`, which the header allows from any thread at any time.
+unsafe impl Send for Shared {}
+// SAFETY: as above: shared references only ever call `lamina_device_emergency_stop`.
+unsafe impl Sync for Shared {}
+
+impl Drop for Shared {
+    fn drop(&mut self) {
+        // SAFETY: `device` was opened by this plugin and is closed exactly once, before the
+        // library is unloaded (the library field drops after this).
+        unsafe { (self.close)(self.device) };
+    }
+}
+
+/// A device driven through a plugin library.
+///
+/// Opened by [`PluginDevice::load`]; closed (zero force, device released) when it and its
+/// emergency-stop handle are dropped.
+pub struct PluginDevice {
+    info: DeviceInfo,
+    /// The force `write_force` never exceeds, N: the reported limit held to the class ceiling.
+    force_ceiling_n: f64,
+    shared: Arc<Shared>,
+    path: PathBuf,
+}
 
 impl std::fmt::Debug for PluginDevice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PluginDevice").field("path", &self.path).field("info", &self.info).finish()
+    }
+}
+
+/// A plugin's `lamina_device_emergency_stop`, callable from any thread.
+struct PluginEmergencyStop {
+    shared: Arc<Shared>,
+    stop: EmergencyStopFn,
+}
+
+impl EmergencyStop for PluginEmergencyStop {
+    fn zero_force(&self) {
+        // SAFETY: the device is open while `shared` lives; the header allows this call from
+        // any thread, during any other call.
+        unsafe { (self.stop)(self.shared.device) };
     }
 }
 
@@ -85,6 +123,10 @@ impl PluginDevice {
     /// checks the limits it reports.
     pub fn load(path: &Path, args: &str) -> Result<Self, DeviceError> {
         let load_err = |detail: String| DeviceError::PluginLoad { path: path.display().to_string(), detail };
+        if path.as_os_str().is_empty() {
+            // An empty name would load the program itself and blame its missing symbols.
+            return Err(load_err("no library path given (expected plugin:PATH/TO/LIB.so)".into()));
+        }
         // SAFETY: loading a library runs its initialisers; a plugin is trusted code the
         // operator chose to run, as a driver is.
         let library = unsafe { libloading::Library::new(path) }.map_err(|e| load_err(e.to_string()))?;
@@ -94,6 +136,8 @@ impl PluginDevice {
         let write: WriteFn = symbol(&library, "lamina_device_write_force", path)?;
         let last_error: LastErrorFn = symbol(&library, "lamina_device_last_error", path)?;
         let close: CloseFn = symbol(&library, "lamina_device_close", path)?;
+        // Optional: a plugin without it still loads (its stalls are reported, not stopped).
+        let emergency_stop: Option<EmergencyStopFn> = symbol(&library, "lamina_device_emergency_stop", path).ok();
         // SAFETY: a function of the header's prototype, taking no arguments.
         let found = unsafe { abi() };
         if found != DEVICE_ABI_VERSION {
@@ -148,7 +192,9 @@ impl PluginDevice {
                 ),
             });
         }
-        Ok(Self { info, device, read, write, last_error, close, path: path.to_path_buf(), _library: library })
+        let force_ceiling_n = within_ceilings(&info).0.max_force_n;
+        let shared = Arc::new(Shared { device, read, write, last_error, close, emergency_stop, _library: library });
+        Ok(Self { info, force_ceiling_n, shared, path: path.to_path_buf() })
     }
 
     /// The library the device came from.
@@ -158,7 +204,7 @@ impl PluginDevice {
 
     fn error_of(&self, code: c_int) -> DeviceError {
         // SAFETY: `device` is open; the message is copied before the next call.
-        let detail = c_text(unsafe { (self.last_error)(self.device) });
+        let detail = c_text(unsafe { (self.shared.last_error)(self.shared.device) });
         if code == DISCONNECTED {
             DeviceError::Disconnected { detail }
         } else {
@@ -177,7 +223,7 @@ impl HapticDevice for PluginDevice {
     fn read(&mut self) -> Result<DeviceState, DeviceError> {
         let mut raw = RawState::default();
         // SAFETY: `device` is open and `raw` is valid for writes.
-        let code = unsafe { (self.read)(self.device, &mut raw) };
+        let code = unsafe { (self.shared.read)(self.shared.device, &mut raw) };
         if code != 0 {
             return Err(self.error_of(code));
         }
@@ -185,25 +231,24 @@ impl HapticDevice for PluginDevice {
     }
 
     fn write_force(&mut self, force_n: [f64; 3]) -> Result<(), DeviceError> {
-        // Clamped again here: whatever reaches a plugin is finite and within its limit.
+        // Clamped again here: whatever reaches a plugin is finite and within its reported
+        // limit held to its class ceiling.
         let mut f = if force_n.iter().all(|c| c.is_finite()) { force_n } else { [0.0; 3] };
-        let norm = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
-        if norm > self.info.max_force_n {
-            f = f.map(|c| c * self.info.max_force_n / norm);
+        let norm = norm3(f);
+        if norm > self.force_ceiling_n {
+            f = f.map(|c| c / norm * self.force_ceiling_n);
         }
         // SAFETY: `device` is open and `f` holds three doubles.
-        let code = unsafe { (self.write)(self.device, f.as_ptr()) };
+        let code = unsafe { (self.shared.write)(self.shared.device, f.as_ptr()) };
         if code != 0 {
             return Err(self.error_of(code));
         }
         Ok(())
     }
-}
 
-impl Drop for PluginDevice {
-    fn drop(&mut self) {
-        // SAFETY: `device` was opened by this plugin and is closed exactly once, before the
-        // library is unloaded (the library field drops after this).
-        unsafe { (self.close)(self.device) };
+    /// The plugin's `lamina_device_emergency_stop`, when it has one.
+    fn emergency_stop(&self) -> Option<Arc<dyn EmergencyStop>> {
+        let stop = self.shared.emergency_stop?;
+        Some(Arc::new(PluginEmergencyStop { shared: self.shared.clone(), stop }))
     }
 }

@@ -9,6 +9,10 @@ use lamina_rt::now_ns;
 /// Latest script time a trajectory may hold, s: one day.
 pub const MAX_SCRIPT_S: f64 = 86_400.0;
 
+/// Reach of the scripted device, m: its workspace radius. A trajectory row farther from the
+/// workspace centre is refused when the file is read.
+pub const SCRIPT_REACH_M: f64 = 0.08;
+
 /// One row of a trajectory: where the handle is at a script time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrajectoryPoint {
@@ -24,8 +28,9 @@ pub struct TrajectoryPoint {
 ///
 /// Format: a header line `t_s,x_m,y_m,z_m` with an optional fifth column `buttons`, then one
 /// row per point; `#` starts a comment line; blank lines are ignored. Times strictly
-/// increase; every value is finite. Positions are linear between rows; buttons switch at
-/// rows; after the last row the handle holds still.
+/// increase within 0 to [`MAX_SCRIPT_S`]; every position lies within [`SCRIPT_REACH_M`] of
+/// the workspace centre. Positions are linear between rows; buttons switch at rows; after the
+/// last row the handle holds still.
 ///
 /// # Examples
 ///
@@ -92,6 +97,16 @@ impl Trajectory {
                 && v[0] <= last.t_s
             {
                 return Err(err(n, format!("t_s {} does not increase (previous {})", v[0], last.t_s)));
+            }
+            let reach = super::norm3([v[1], v[2], v[3]]);
+            if reach > SCRIPT_REACH_M {
+                return Err(err(
+                    n,
+                    format!(
+                        "position ({}, {}, {}) m is {reach:.3e} m from the workspace centre, beyond the scripted device's reach of {SCRIPT_REACH_M} m",
+                        fields[1], fields[2], fields[3]
+                    ),
+                ));
             }
             points.push(TrajectoryPoint { t_s: v[0], position_m: [v[1], v[2], v[3]], buttons });
         }
@@ -180,7 +195,7 @@ impl ScriptedDevice {
             max_force_n: 12.0,
             max_stiffness_n_per_m: 3000.0,
             max_damping_n_s_per_m: 20.0,
-            workspace_radius_m: 0.08,
+            workspace_radius_m: SCRIPT_REACH_M,
         }
     }
 
