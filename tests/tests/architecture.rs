@@ -1,5 +1,6 @@
-//! ARCHITECTURE.md stays true: every repository path it names exists, and the crates depend on
-//! each other as it says, read from cargo's resolved dependency graph (`cargo metadata`).
+//! ARCHITECTURE.md stays true: every repository path it names exists, the crates depend on
+//! each other as it says, read from cargo's resolved dependency graph (`cargo metadata`), and no
+//! crate's modules import each other in a cycle of any length.
 
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
