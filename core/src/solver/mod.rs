@@ -17,6 +17,7 @@ mod implicit;
 mod implicit_factored;
 pub(crate) mod lane_block;
 mod multirate;
+mod multirate_settings;
 mod node_accel;
 mod params;
 mod simd;
@@ -42,10 +43,8 @@ pub use dynamics::{StageCounters, State};
 pub use effects::{BoneMotion, DragHandle, Effects, GuardSettings, PointLoad, SphereTool, ToolFeedback};
 pub use guard::{GuardEvent, GuardReason, Recovery};
 pub use implicit_factored::ImplicitFactored;
-pub use multirate::{
-    FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings, MultirateStatus,
-    region_radius,
-};
+pub use multirate::{FrameChanges, MultirateStatus, region_radius};
+pub use multirate_settings::{LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings};
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
 pub use simulation::{GuardTotals, Simulation, SimulationBuildError};

@@ -135,7 +135,7 @@ pub struct IntegrationParameters {
     /// Multirate stepping (`implicit_factored` only): the region around the tool every frame,
     /// the rest of the model once per `ratio` frames on a thread of its own
     /// (`solver/multirate.rs`). Default `None`: every node every frame.
-    pub multirate: Option<super::multirate::MultirateSettings>,
+    pub multirate: Option<super::multirate_settings::MultirateSettings>,
 }
 
 impl Default for IntegrationParameters {

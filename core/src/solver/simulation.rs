@@ -20,9 +20,11 @@ use super::guard::{GuardEvent, Recovery, inspect_state};
 use super::implicit::ImplicitSolver;
 use super::implicit_factored::ImplicitFactored;
 use super::multirate::{
-    DEFER_BUILD_EXCHANGES, FrameChanges, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, Multirate,
-    MultirateSettings, MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk, build_region,
-    region_radius,
+    FrameChanges, Multirate, MultirateStatus, RegionBuilder, Relocation, auto_build_exchanges, build_bulk,
+    build_region, region_radius,
+};
+use super::multirate_settings::{
+    DEFER_BUILD_EXCHANGES, LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings,
 };
 use super::params::{IntegrationParameters, IntegratorKind, Substeps};
 use super::vec3s::Vec3s;
