@@ -451,6 +451,16 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
     })
 }
 
+/// Text read of an ascii-encoded volume, bytes per sample: a number as teem writes it takes
+/// under 30 characters with its separator; more is whitespace, or a file that never ends.
+const ASCII_BYTES_PER_SAMPLE: u64 = 64;
+
+/// Most text read for `samples` ascii samples, bytes (a gzip stream of blanks is not
+/// followed past it).
+fn ascii_text_limit(samples: u64) -> u64 {
+    samples.saturating_mul(ASCII_BYTES_PER_SAMPLE).saturating_add(4096)
+}
+
 /// The samples read (`header.read_samples` of them, the first volume's), as numbers.
 fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
     let path = header.data_file.as_path();
@@ -489,16 +499,25 @@ fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
         }
     }
     if header.encoding == Encoding::Ascii {
+        let limit = ascii_text_limit(wanted);
         let mut text = String::new();
-        decoded.read_to_string(&mut text).map_err(|e| data_error(path, format!("not text: {e}")))?;
-        let values: Vec<f64> = text
-            .split(|c: char| c.is_ascii_whitespace() || c == ',')
+        (&mut decoded).take(limit).read_to_string(&mut text).map_err(|e| data_error(path, format!("not text: {e}")))?;
+        // Cut at the limit, the last number may be partial: it is not read.
+        let separator = |c: char| c.is_ascii_whitespace() || c == ',';
+        let body = if text.len() as u64 >= limit { &text[..text.rfind(separator).unwrap_or(0)] } else { &text[..] };
+        let values: Vec<f64> = body
+            .split(separator)
             .filter(|t| !t.is_empty())
             .take(wanted as usize)
             .map(|t| t.parse::<f64>().map_err(|_| data_error(path, format!("{:?} is not a number", truncated(t)))))
             .collect::<Result<_, _>>()?;
         if (values.len() as u64) < wanted {
-            return Err(data_error(path, format!("{} numbers, {wanted} expected", values.len())));
+            let within = if text.len() as u64 >= limit {
+                format!(" within the first {limit} bytes of text")
+            } else {
+                String::new()
+            };
+            return Err(data_error(path, format!("{} numbers{within}, {wanted} expected", values.len())));
         }
         return Ok(values);
     }
@@ -527,7 +546,10 @@ pub fn read_nrrd(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
     let [x, y, z] = header.geometry.dims;
     let what = format!("{x}x{y}x{z} voxels of {:?} samples", header.sample);
     let texture = u64::from(x) * u64::from(y) * u64::from(z) * header.geometry.format.bytes() as u64;
-    let raw = header.read_samples.saturating_mul(header.sample.bytes() as u64);
+    let raw = match header.encoding {
+        Encoding::Ascii => ascii_text_limit(header.read_samples),
+        Encoding::Raw | Encoding::Gzip => header.read_samples.saturating_mul(header.sample.bytes() as u64),
+    };
     check_conversion_memory(&header.data_file, &what, raw, header.read_samples, texture)?;
     let values = read_samples(&header)?;
     let data = match header.extra {

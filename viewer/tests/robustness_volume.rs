@@ -263,3 +263,32 @@ fn robustness_volume_conversion_beyond_the_memory_budget_fail() {
     assert!(read_volume(&spec(&phantom)).is_ok());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn robustness_nrrd_ascii_text_is_read_within_its_bound_fail() {
+    // 8 samples: at most 8 * 64 + 4096 = 4,608 bytes of text are read, not the whole file
+    // (up to the 16 GiB a volume file may be); here a megabyte of blanks after one number.
+    let dir = scratch("ascii");
+    let head = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nspacings: 1 1 1\nencoding: ascii\n\n".to_vec();
+    let blanks = dir.join("blanks.nrrd");
+    std::fs::write(&blanks, [head.clone(), b"1 ".to_vec(), vec![b' '; 1 << 20], b"2 3 4 5 6 7 8\n".to_vec()].concat())
+        .unwrap();
+    let e = read_volume(&spec(&blanks)).unwrap_err().to_string();
+    assert!(
+        e.contains("blanks.nrrd") && e.contains("1 numbers within the first 4608 bytes of text, 8 expected"),
+        "{e}"
+    );
+    // A number cut by the bound is not read as a shorter one: 4,600 bytes of blanks, then a
+    // 20-digit number across byte 4,608 of the text.
+    let cut = dir.join("cut.nrrd");
+    let text = [b"1 2 3 4 5 6 7".to_vec(), vec![b' '; 4590], b"12345678901234567890\n".to_vec()].concat();
+    std::fs::write(&cut, [head.clone(), text].concat()).unwrap();
+    let e = read_volume(&spec(&cut)).unwrap_err().to_string();
+    assert!(e.contains("7 numbers within the first 4608 bytes of text, 8 expected"), "{e}");
+    // The same eight numbers close together read.
+    let near = dir.join("near.nrrd");
+    std::fs::write(&near, [head, b"1 2 3 4 5 6 7 8\n".to_vec()].concat()).unwrap();
+    let v = read_volume(&spec(&near)).expect("eight numbers read");
+    assert_eq!(v.data, (0..8).map(|k| (f64::from(k) * 255.0 / 7.0).round() as u8).collect::<Vec<_>>());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
