@@ -54,3 +54,13 @@ fn robustness_probe_rate_outside_the_bound_fail() {
         assert!(err.contains(&expect), "--rate {given}: {err}");
     }
 }
+
+#[test]
+fn robustness_probe_nodes_outside_the_bound_fail() {
+    // 1e10 nodes sized a 17.5 TB sparse segment in /dev/shm.
+    for nodes in ["0", "1000001", "10000000000"] {
+        let (ok, err) = run(PROBE, &["--prefix", "robust_nodes_none", "--nodes", nodes]);
+        assert!(!ok, "--nodes {nodes} exits non-zero");
+        assert!(err.contains(&format!("--nodes {nodes}: must be from 1 to 1000000")), "--nodes {nodes}: {err}");
+    }
+}

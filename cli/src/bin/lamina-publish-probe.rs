@@ -18,7 +18,7 @@ use serde::Serialize;
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {
-    /// Nodes per frame.
+    /// Nodes per frame, from 1 to 1,000,000.
     #[arg(long, default_value_t = 2769)]
     nodes: usize,
     /// Frames per second, from 0.001 to 1e6.
@@ -55,6 +55,10 @@ struct Summary {
     delivered_total: u64,
 }
 
+/// Most `--nodes` accepted: the node service holds 146 frames of 12 bytes per node in
+/// `/dev/shm`, 1.75 GB at this count.
+const MAX_NODES: usize = 1_000_000;
+
 /// Slowest and fastest `--rate` accepted, frames per second.
 const MIN_RATE_HZ: f64 = 1e-3;
 const MAX_RATE_HZ: f64 = 1e6;
@@ -80,6 +84,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     if !(MIN_RATE_HZ..=MAX_RATE_HZ).contains(&args.rate) {
         let rate = lamina_rt::format_value(args.rate);
         return Err(format!("--rate {rate}: must be from {MIN_RATE_HZ} to {MAX_RATE_HZ:e} frames per second").into());
+    }
+    if !(1..=MAX_NODES).contains(&args.nodes) {
+        return Err(format!(
+            "--nodes {}: must be from 1 to {MAX_NODES} (the node service's shared memory is sized for 146 frames \
+             of 12 bytes per node: 1.75 GB of /dev/shm at the most)",
+            args.nodes
+        )
+        .into());
     }
     let run_for = lamina_rt::seconds_option("--seconds", args.seconds, MAX_SECONDS)?;
     if let Some(cpu) = args.pin {
