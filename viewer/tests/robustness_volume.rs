@@ -292,3 +292,29 @@ fn robustness_nrrd_ascii_text_is_read_within_its_bound_fail() {
     assert_eq!(v.data, (0..8).map(|k| (f64::from(k) * 255.0 / 7.0).round() as u8).collect::<Vec<_>>());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn robustness_nifti_pair_with_a_fifo_or_an_offset_img_fail() {
+    // A .hdr/.img pair (magic "ni1"): the voxels are the .img's from byte 0.
+    let dir = scratch("pair");
+    let hdr = dir.join("pair.hdr");
+    let img = dir.join("pair.img");
+    let mut header = nifti_header([2, 2, 2], [1.0; 3], 0.0, 0);
+    header[344..348].copy_from_slice(b"ni1\0");
+    std::fs::write(&hdr, &header[..348]).unwrap();
+    std::fs::write(&img, (1..=8).collect::<Vec<u8>>()).unwrap();
+    let v = read_volume(&spec(&hdr)).expect("a pair reads");
+    assert_eq!((v.size, v.data[7]), ([2, 2, 2], 255));
+    // The .img a FIFO: refused, not opened.
+    std::fs::remove_file(&img).unwrap();
+    mkfifo(&img);
+    let p = hdr.clone();
+    let e = within_a_minute(move || read_volume_header(&p).map(|_| ())).unwrap_err().to_string();
+    assert!(e.contains("pair.img") && e.contains("a FIFO (named pipe), not a regular file"), "{e}");
+    // vox_offset 352 in a pair.
+    header[108..112].copy_from_slice(&352f32.to_le_bytes());
+    std::fs::write(&hdr, &header[..348]).unwrap();
+    let e = read_volume_header(&hdr).unwrap_err().to_string();
+    assert!(e.contains("vox_offset 352:") && e.contains("from the start of the .img: it must be 0"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
