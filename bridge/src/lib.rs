@@ -54,6 +54,7 @@ pub use subscribe::{
     StatsSubscriber, ToolSubscriber, TopologySample, TopologySubscriber,
 };
 pub use topology::{
-    LayerRange, SurfaceTopology, TissueKind, Topology, TopologyDecodeError, TopologyEncodeError, VolumeTopology,
+    LayerRange, SurfaceTopology, TissueKind, Topology, TopologyDecodeError, TopologyEncodeError, VolumePathError,
+    VolumeTopology,
 };
 pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand, WireTool};

@@ -153,6 +153,38 @@ pub struct VolumeTopology {
     pub window: Option<[f64; 2]>,
 }
 
+impl VolumeTopology {
+    /// Longest volume path the wire carries, bytes of UTF-8 ([`VOLUME_PATH_LEN`]).
+    pub const MAX_PATH_BYTES: usize = VOLUME_PATH_LEN;
+
+    /// Checks that `path` fits the wire: at most [`Self::MAX_PATH_BYTES`] bytes, no NUL. A
+    /// core calls it when it loads a scene, so a path that could not be published is refused
+    /// there, naming the file and the limit.
+    ///
+    /// # Errors
+    /// [`VolumePathError`] with the path, its length and the limit.
+    pub fn check_path(path: &str) -> Result<(), VolumePathError> {
+        if path.len() > Self::MAX_PATH_BYTES || path.contains('\0') {
+            return Err(VolumePathError { path: path.to_owned(), bytes: path.len() });
+        }
+        Ok(())
+    }
+}
+
+/// A volume path the wire cannot carry ([`VolumeTopology::check_path`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "visual.volume {path:?}: {bytes} bytes; a volume path published to the viewer may have at most {} bytes and no NUL \
+     (give the file a shorter path)",
+    VolumeTopology::MAX_PATH_BYTES
+)]
+pub struct VolumePathError {
+    /// The path.
+    pub path: String,
+    /// Its length, bytes.
+    pub bytes: usize,
+}
+
 /// Why a [`Topology`] cannot be put on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum TopologyEncodeError {
@@ -165,9 +197,19 @@ pub enum TopologyEncodeError {
     /// A layer name is longer than [`LAYER_NAME_LEN`] bytes or contains a NUL character.
     #[error("cannot encode topology: layer name too long or contains NUL")]
     InvalidLayerName,
-    /// A surface name, the model name or the volume path is too long or contains NUL.
-    #[error("cannot encode topology: surface name, model name or volume path too long or contains NUL")]
+    /// A surface name or the model name is too long or contains NUL.
+    #[error("cannot encode topology: surface name or model name too long or contains NUL")]
     InvalidName,
+    /// The volume path is longer than [`VolumeTopology::MAX_PATH_BYTES`] or contains NUL.
+    #[error(
+        "cannot encode topology: the volume path (visual.volume) is {bytes} bytes; the wire carries at most {} \
+         and no NUL",
+        VolumeTopology::MAX_PATH_BYTES
+    )]
+    VolumePath {
+        /// The path's length, bytes.
+        bytes: usize,
+    },
     /// A layer's node range reaches past `node_count`.
     #[error("cannot encode topology: layer node range exceeds node count")]
     LayerOutOfRange,
@@ -349,7 +391,7 @@ impl Topology {
                     return Err(E::NonFinite);
                 }
                 WireVolume {
-                    path: put_name::<VOLUME_PATH_LEN>(&v.path).ok_or(E::InvalidName)?,
+                    path: put_name::<VOLUME_PATH_LEN>(&v.path).ok_or(E::VolumePath { bytes: v.path.len() })?,
                     origin_m: v.origin_m.unwrap_or_default(),
                     window: v.window.unwrap_or_default(),
                     flags: u32::from(v.origin_m.is_some()) | (u32::from(v.window.is_some()) << 1),

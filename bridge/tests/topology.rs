@@ -187,7 +187,7 @@ fn topology_invalid_encode_fails() {
     assert_eq!(with(&|t| t.tool.radius_m = f64::INFINITY), Some(TopologyEncodeError::NonFinite));
     assert_eq!(with(&|t| t.name = "\0".into()), Some(TopologyEncodeError::InvalidName));
     let volume = |path: String| Some(VolumeTopology { path, ..VolumeTopology::default() });
-    assert_eq!(with(&|t| t.volume = volume("v".repeat(300))), Some(TopologyEncodeError::InvalidName));
+    assert_eq!(with(&|t| t.volume = volume("v".repeat(300))), Some(TopologyEncodeError::VolumePath { bytes: 300 }));
     assert_eq!(
         with(&|t| t.volume = Some(VolumeTopology { window: Some([0.0, f64::NAN]), ..VolumeTopology::default() })),
         Some(TopologyEncodeError::NonFinite)
@@ -262,4 +262,30 @@ fn topology_invalid_decode_fails() {
     let mut bad = words.clone();
     bad[21] = f32::INFINITY.to_bits();
     assert_eq!(Topology::decode(&header, &bad), Err(TopologyDecodeError::NonFinite), "rest position");
+}
+
+/// A volume path longer than the wire's 256 bytes is refused by name and length, at load
+/// (`VolumeTopology::check_path`) and at encoding; 256 bytes fit and come back whole.
+#[test]
+fn robustness_volume_path_beyond_the_wire_fail() {
+    let long = format!("/{}", "d/".repeat(150));
+    let e = VolumeTopology::check_path(&long).unwrap_err();
+    assert_eq!(e.bytes, 301);
+    let text = e.to_string();
+    assert!(text.starts_with("visual.volume \"/d/d/") && text.contains(": 301 bytes;"), "{text}");
+    assert!(text.contains("at most 256 bytes"), "{text}");
+    assert!(VolumeTopology::check_path("a\0b").is_err(), "a NUL is refused");
+    let fits = format!("/{}", "v".repeat(255));
+    assert_eq!(VolumeTopology::check_path(&fits), Ok(()));
+    let topo = |path: &str| Topology {
+        node_count: 1,
+        volume: Some(VolumeTopology { path: path.into(), ..VolumeTopology::default() }),
+        ..Topology::default()
+    };
+    let e = topo(&long).header().unwrap_err();
+    assert_eq!(e, TopologyEncodeError::VolumePath { bytes: 301 });
+    assert!(e.to_string().contains("volume path (visual.volume) is 301 bytes; the wire carries at most 256"), "{e}");
+    let (header, words) = topo(&fits).encode().expect("256 bytes fit");
+    let back = Topology::decode(&header, &words).expect("decodes");
+    assert_eq!(back.volume.map(|v| v.path), Some(fits));
 }

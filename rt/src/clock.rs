@@ -279,8 +279,55 @@ impl Clock for FakeClock {
     }
 }
 
+/// A number as messages show it: plainly between 1e-3 and 1e6 in magnitude (and 0), in
+/// scientific notation otherwise (`1e300`, not 301 digits), `NaN`, `inf` and `-inf` as such.
+pub fn format_value(v: f64) -> String {
+    if v == 0.0 || (v.is_finite() && (1e-3..1e6).contains(&v.abs())) { format!("{v}") } else { format!("{v:e}") }
+}
+
+/// Why [`seconds_option`] refused a run length.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{option} {}: must be a number of seconds above 0 and at most {}", format_value(*.seconds), format_value(*.max_s))]
+pub struct SecondsOptionError {
+    /// The option, e.g. `--seconds`.
+    pub option: String,
+    /// The value given, s.
+    pub seconds: f64,
+    /// The largest value accepted, s.
+    pub max_s: f64,
+}
+
+/// The run length `seconds` given as command-line option `option`, when it is a number
+/// above 0 and at most `max_s` (seconds); NaN, infinities, 0, negative values and values
+/// above `max_s` are refused, never clamped.
+///
+/// # Errors
+/// [`SecondsOptionError`] naming the option, the value and the bound.
+pub fn seconds_option(option: &str, seconds: f64, max_s: f64) -> Result<core::time::Duration, SecondsOptionError> {
+    let refuse = || SecondsOptionError { option: option.to_owned(), seconds, max_s };
+    if !(seconds > 0.0 && seconds <= max_s) {
+        return Err(refuse());
+    }
+    core::time::Duration::try_from_secs_f64(seconds).map_err(|_| refuse())
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn seconds_option_refuses_values_outside_its_bound_fail() {
+        use super::seconds_option;
+        assert_eq!(seconds_option("--seconds", 2.5, 1e9), Ok(core::time::Duration::from_millis(2500)));
+        assert_eq!(seconds_option("--seconds", 1e9, 1e9), Ok(core::time::Duration::from_secs(1_000_000_000)));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -1.0, 0.0, 1e300, 1.000_001e9] {
+            let e = seconds_option("--seconds", bad, 1e9).unwrap_err().to_string();
+            assert!(e.starts_with("--seconds ") && e.ends_with("above 0 and at most 1e9"), "{e}");
+        }
+        let e = seconds_option("--seconds", 1e300, 1e9).unwrap_err().to_string();
+        assert_eq!(e, "--seconds 1e300: must be a number of seconds above 0 and at most 1e9");
+        let e = seconds_option("--seconds", f64::NAN, 1e9).unwrap_err().to_string();
+        assert!(e.starts_with("--seconds NaN:"), "{e}");
+    }
+
     use super::*;
 
     #[test]

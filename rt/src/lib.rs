@@ -61,7 +61,8 @@ pub mod tick;
 pub mod worst;
 
 pub use clock::{
-    Clock, ComputeModel, DEFAULT_SLEEP_SLICE_NS, DEFAULT_SPIN_NS, FakeClock, MonotonicClock, now_ns, sleep_until_ns,
+    Clock, ComputeModel, DEFAULT_SLEEP_SLICE_NS, DEFAULT_SPIN_NS, FakeClock, MonotonicClock, SecondsOptionError,
+    format_value, now_ns, seconds_option, sleep_until_ns,
 };
 pub use fixed_rate::{
     FixedRateLoop, FixedRateLoopCreateError, OverrunPolicy, RunLimit, RunSummary, StopReason, period_ns_from_rate_hz,
@@ -73,8 +74,8 @@ pub use monitor::{
 };
 pub use ring::{TickRecord, TickRecordRing};
 pub use setup::{
-    FifoPrioritySetError, Grant, MemoryLockError, RealtimeRequest, RealtimeSetup, ThreadPinError, available_cpus,
-    lock_memory, pin_current_thread, set_fifo_priority, unlock_memory,
+    CpuOptionError, FifoPrioritySetError, Grant, MemoryLockError, RealtimeRequest, RealtimeSetup, ThreadPinError,
+    available_cpus, format_cpu_list, lock_memory, pin_current_thread, pin_for_option, set_fifo_priority, unlock_memory,
 };
 pub use signal::{StopHandlerInstallError, caught_stop_signal, install_stop_handler, signal_name};
 pub use summary::{MonitorSummary, Percentiles};

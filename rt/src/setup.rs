@@ -120,6 +120,60 @@ pub fn available_cpus() -> Vec<usize> {
     ids
 }
 
+/// A CPU list as the kernel writes one (`/sys/devices/system/cpu/online`): ascending runs
+/// joined by commas, `0-3,6`; `none` for an empty list.
+pub fn format_cpu_list(cpus: &[usize]) -> String {
+    let mut sorted = cpus.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for cpu in sorted {
+        match runs.last_mut() {
+            Some((_, end)) if *end + 1 == cpu => *end = cpu,
+            _ => runs.push((cpu, cpu)),
+        }
+    }
+    if runs.is_empty() {
+        return "none".into();
+    }
+    let text: Vec<String> =
+        runs.iter().map(|&(a, b)| if a == b { a.to_string() } else { format!("{a}-{b}") }).collect();
+    text.join(",")
+}
+
+/// Why [`pin_for_option`] refused a CPU given on the command line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{option} {cpu}: {reason}; this process may run on CPUs {}", format_cpu_list(.available))]
+pub struct CpuOptionError {
+    /// The option, e.g. `--pin`.
+    pub option: String,
+    /// The CPU index given.
+    pub cpu: usize,
+    /// `"no such CPU"` (not in the process's allowed set) or why the kernel refused it.
+    pub reason: &'static str,
+    /// The CPUs this process may run on ([`available_cpus`]).
+    pub available: Vec<usize>,
+}
+
+/// Pins the calling thread to `cpu`, a value of the command-line option `option`, or refuses
+/// it: a CPU outside this process's allowed set (one that does not exist, or that a cpuset
+/// or `taskset` excludes) is never handed to `CPU_SET`, and the error names the option, the
+/// value and the CPUs this process may run on.
+///
+/// # Errors
+/// [`CpuOptionError`] when `cpu` is not one of those CPUs or the kernel refuses it.
+pub fn pin_for_option(option: &str, cpu: usize) -> Result<(), CpuOptionError> {
+    pin_current_thread(cpu).map_err(|e| CpuOptionError {
+        option: option.to_owned(),
+        cpu,
+        reason: match e {
+            ThreadPinError::CpuUnavailable { .. } => "no such CPU",
+            ThreadPinError::Refused { .. } => "the kernel refused to pin to it",
+        },
+        available: available_cpus(),
+    })
+}
+
 /// Gives the calling thread real-time priority `priority` under `SCHED_FIFO`
 /// (`sched_setscheduler(0, ...)`, which on Linux applies to the calling
 /// thread only).
@@ -313,5 +367,40 @@ impl fmt::Display for RealtimeSetup {
             format_args!("priority {}", self.request.fifo_priority.unwrap_or_default()),
         )?;
         write_line(f, "memory lock", &self.memory_lock, format_args!("mlockall(MCL_CURRENT | MCL_FUTURE)"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_list_is_written_as_the_kernel_writes_it_works() {
+        assert_eq!(format_cpu_list(&[]), "none");
+        assert_eq!(format_cpu_list(&[0]), "0");
+        assert_eq!(format_cpu_list(&[3, 0, 1, 2, 6, 8, 9]), "0-3,6,8-9");
+        assert_eq!(format_cpu_list(&[1, 1, 5]), "1,5");
+    }
+
+    #[test]
+    fn pin_for_option_refuses_a_cpu_that_does_not_exist_fail() {
+        // CPU_SETSIZE is 1024: the index that aborted inside CPU_SET, and far past any CPU here.
+        let e = std::thread::spawn(|| pin_for_option("--pin", 1024)).join().unwrap().unwrap_err();
+        assert_eq!((e.cpu, e.reason), (1024, "no such CPU"));
+        let text = e.to_string();
+        assert!(text.starts_with("--pin 1024: no such CPU; this process may run on CPUs "), "{text}");
+        assert!(text.ends_with(&format_cpu_list(&available_cpus())), "{text}");
+        let e = std::thread::spawn(|| pin_for_option("--pin", usize::MAX)).join().unwrap().unwrap_err();
+        assert_eq!(e.cpu, usize::MAX);
+    }
+
+    #[test]
+    fn pin_for_option_pins_to_an_allowed_cpu_works() {
+        let cpu = *available_cpus().last().expect("some CPU");
+        let pinned = std::thread::spawn(move || {
+            pin_for_option("--pin", cpu).map(|()| core_affinity::get_core_ids().map(|ids| ids.len()))
+        });
+        // The pinned thread's own mask holds one CPU (core_affinity lists the thread's mask).
+        assert_eq!(pinned.join().unwrap(), Ok(Some(1)));
     }
 }

@@ -82,8 +82,8 @@ struct Args {
     /// Samples per pixel: 1 or 4.
     #[arg(long, default_value_t = 4, value_parser = parse_samples)]
     samples: u32,
-    /// Angle threshold φ of the adaptive patching, degrees (the paper: 10).
-    #[arg(long, default_value_t = 10.0)]
+    /// Angle threshold φ of the adaptive patching, degrees, from 0.1 to 180 (the paper: 10).
+    #[arg(long, default_value_t = 10.0, value_parser = parse_phi_deg)]
     phi_deg: f64,
     /// Spring wireframe.
     #[arg(long, value_enum, default_value_t = Springs::Removed)]
@@ -110,9 +110,9 @@ struct Args {
     /// Default: the scene's [visual] volume, else a procedural one.
     #[arg(long, value_name = "FILE")]
     volume: Option<PathBuf>,
-    /// Give up after waiting this long for the core without receiving anything, seconds
-    /// (default: wait forever).
-    #[arg(long)]
+    /// Give up after waiting this long for the core without receiving anything, seconds,
+    /// above 0 and at most 1e9 (default: wait forever).
+    #[arg(long, value_parser = parse_wait_limit)]
     wait_limit_s: Option<f64>,
     /// Print a timing line for every frame (default: every frame when --frames ≤ 100, else
     /// once per second).
@@ -152,6 +152,21 @@ fn parse_direction(s: &str) -> Result<[f32; 3], String> {
     if d.iter().any(|c| *c != 0.0) { Ok(d) } else { Err(format!("'{s}': the direction must not be zero")) }
 }
 
+/// Smallest and largest `--phi-deg`, degrees: below 0.1 a patch would be cut into more than
+/// the subdivision cap anyway; above 180 no two normals differ by φ.
+const PHI_DEG_RANGE: [f64; 2] = [0.1, 180.0];
+
+fn parse_phi_deg(s: &str) -> Result<f64, String> {
+    let phi: f64 = s.trim().parse().map_err(|e| format!("{e}"))?;
+    let [lo, hi] = PHI_DEG_RANGE;
+    if (lo..=hi).contains(&phi) { Ok(phi) } else { Err(format!("φ must be from {lo} to {hi} degrees")) }
+}
+
+fn parse_wait_limit(s: &str) -> Result<f64, String> {
+    let seconds: f64 = s.trim().parse().map_err(|e| format!("{e}"))?;
+    lamina_rt::seconds_option("--wait-limit-s", seconds, 1e9).map(|_| seconds).map_err(|e| e.to_string())
+}
+
 fn parse_samples(s: &str) -> Result<u32, String> {
     match s {
         "1" => Ok(1),
@@ -166,7 +181,7 @@ fn options(args: &Args) -> ViewerOptions {
         height: args.size.1,
         samples: args.samples,
         mesh: MeshOptions {
-            phi: args.phi_deg.max(0.1).to_radians(),
+            phi: args.phi_deg.to_radians(),
             springs: match args.springs {
                 Springs::Off => SpringDisplay::Off,
                 Springs::Removed => SpringDisplay::RemovedSide,

@@ -13,14 +13,14 @@
 //!
 //! Format: <https://teem.sourceforge.net/nrrd/format.html>.
 
-use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
-
 use crate::view_model::VolumeSpec;
-use crate::volume::{MAX_TEXTURE_BYTES, VolumeError, VolumeGeometry, VolumeImage, VoxelFormat, grey_levels};
+use crate::volume::{
+    MAX_TEXTURE_BYTES, VolumeError, VolumeGeometry, VolumeImage, VoxelFormat, check_conversion_memory,
+    checked_geometry, checked_placement, grey_levels, open_volume_file, try_to_f64,
+};
 
 /// Longest header accepted, bytes: a header is a few hundred bytes; this bounds a file that
 /// starts like NRRD and never ends its header.
@@ -166,7 +166,7 @@ fn io_error(path: &Path, e: &std::io::Error) -> VolumeError {
 /// Reads the header lines up to the blank line (attached data) or the end of the file: the
 /// fields, the number of the header's last line, and the byte offset just past the header.
 fn read_fields(path: &Path) -> Result<(Fields, usize, u64), VolumeError> {
-    let file = File::open(path).map_err(|e| io_error(path, &e))?;
+    let (file, _) = open_volume_file(path)?;
     let mut reader = BufReader::new(file).take(MAX_HEADER_BYTES);
     let mut fields = Fields::default();
     let (mut line_no, mut offset) = (0usize, 0u64);
@@ -233,6 +233,16 @@ fn vectors(value: &str) -> Result<Vec<Option<[f64; 3]>>, String> {
             if v.iter().all(|c| c.is_finite()) { Ok(Some(v)) } else { Err(format!("{item:?} is not finite")) }
         })
         .collect()
+}
+
+/// The length of `v`, scaled so that neither tiny nor huge components underflow or
+/// overflow on the way (a direction of `1e-300` is `1e-300` long, not 0).
+fn length(v: [f64; 3]) -> f64 {
+    let scale = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if scale == 0.0 || !scale.is_finite() {
+        return scale;
+    }
+    scale * v.iter().map(|c| (c / scale).powi(2)).sum::<f64>().sqrt()
 }
 
 /// Metres per unit of a `space units` entry.
@@ -369,7 +379,7 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
         }
     };
     let spacing = match (&directions, fields.get("spacings")) {
-        (Some((_, d)), _) => axes.map(|k| d[k].map_or(0.0, |v| v.iter().map(|c| c * c).sum::<f64>().sqrt())),
+        (Some((_, d)), _) => axes.map(|k| d[k].map_or(0.0, length)),
         (None, Some((line, value))) => {
             let s: Vec<f64> = value.split_whitespace().map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect();
             per_axis("spacings", line, s.len())?;
@@ -379,10 +389,6 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
             return Err(at(path, lines, "no voxel spacing: give \"space directions:\" or \"spacings:\""));
         }
     };
-    if !spacing.iter().all(|s| s.is_finite() && *s > 0.0) {
-        let line = directions.as_ref().map(|(l, _)| *l).or(fields.get("spacings").map(|(l, _)| l)).unwrap_or(lines);
-        return Err(at(path, line, format!("voxel spacing {spacing:?} must be finite and positive")));
-    }
     let origin = match fields.get("space origin") {
         None => [0.0; 3],
         Some((line, value)) => match vectors(value).map_err(|m| at(path, line, format!("space origin: {m}")))?[..] {
@@ -413,14 +419,25 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
         return Err(at(path, line, "line skip must be 0 or more, byte skip 0 or more (or -1 with raw encoding)"));
     }
 
-    let to_m = |v: [f64; 3]| Vec3::from_array(v.map(|c| (c * unit) as f32));
+    let spacing_field = if directions.is_some() { "space directions" } else { "spacings" };
+    let geometry = checked_geometry(
+        path,
+        dims64.map(|n| n as u32),
+        (spacing, spacing_field),
+        (origin, "space origin"),
+        unit,
+        format,
+    )
+    .map_err(|e| match e {
+        // The header's line with the field, as every NRRD header error gives.
+        VolumeError::Field { field, value, bound, .. } => {
+            let line = fields.get(field).map_or(lines, |(l, _)| l);
+            at(path, line, format!("{field} {value}: {bound}"))
+        }
+        other => other,
+    })?;
     Ok(Header {
-        geometry: VolumeGeometry {
-            dims: dims64.map(|n| n as u32),
-            spacing_m: to_m(spacing),
-            origin_m: to_m(origin),
-            format,
-        },
+        geometry,
         sample,
         encoding,
         big_endian,
@@ -434,10 +451,20 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
     })
 }
 
+/// Text read of an ascii-encoded volume, bytes per sample: a number as teem writes it takes
+/// under 30 characters with its separator; more is whitespace, or a file that never ends.
+const ASCII_BYTES_PER_SAMPLE: u64 = 64;
+
+/// Most text read for `samples` ascii samples, bytes (a gzip stream of blanks is not
+/// followed past it).
+fn ascii_text_limit(samples: u64) -> u64 {
+    samples.saturating_mul(ASCII_BYTES_PER_SAMPLE).saturating_add(4096)
+}
+
 /// The samples read (`header.read_samples` of them, the first volume's), as numbers.
 fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
     let path = header.data_file.as_path();
-    let mut file = File::open(path).map_err(|e| io_error(path, &e))?;
+    let (mut file, _) = open_volume_file(path)?;
     let sample_bytes = header.sample.bytes() as u64;
     let wanted = header.read_samples;
     let start = if header.byte_skip == -1 {
@@ -472,16 +499,25 @@ fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
         }
     }
     if header.encoding == Encoding::Ascii {
+        let limit = ascii_text_limit(wanted);
         let mut text = String::new();
-        decoded.read_to_string(&mut text).map_err(|e| data_error(path, format!("not text: {e}")))?;
-        let values: Vec<f64> = text
-            .split(|c: char| c.is_ascii_whitespace() || c == ',')
+        (&mut decoded).take(limit).read_to_string(&mut text).map_err(|e| data_error(path, format!("not text: {e}")))?;
+        // Cut at the limit, the last number may be partial: it is not read.
+        let separator = |c: char| c.is_ascii_whitespace() || c == ',';
+        let body = if text.len() as u64 >= limit { &text[..text.rfind(separator).unwrap_or(0)] } else { &text[..] };
+        let values: Vec<f64> = body
+            .split(separator)
             .filter(|t| !t.is_empty())
             .take(wanted as usize)
             .map(|t| t.parse::<f64>().map_err(|_| data_error(path, format!("{:?} is not a number", truncated(t)))))
             .collect::<Result<_, _>>()?;
         if (values.len() as u64) < wanted {
-            return Err(data_error(path, format!("{} numbers, {wanted} expected", values.len())));
+            let within = if text.len() as u64 >= limit {
+                format!(" within the first {limit} bytes of text")
+            } else {
+                String::new()
+            };
+            return Err(data_error(path, format!("{} numbers{within}, {wanted} expected", values.len())));
         }
         return Ok(values);
     }
@@ -496,7 +532,7 @@ fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
     if (bytes.len() as u64) < wanted_bytes {
         return Err(data_error(path, format!("{} bytes of data, {wanted_bytes} expected", bytes.len())));
     }
-    Ok(bytes.chunks_exact(sample_bytes as usize).map(|b| header.sample.value(b, header.big_endian)).collect())
+    try_to_f64(path, bytes.chunks_exact(sample_bytes as usize), |b| header.sample.value(b, header.big_endian))
 }
 
 /// Reads the volume of `spec`, a NRRD file (see the module's documentation for what is read):
@@ -505,13 +541,22 @@ fn read_samples(header: &Header) -> Result<Vec<f64>, VolumeError> {
 /// `spec.origin_m`, default the header's `space origin`.
 pub fn read_nrrd(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
     let path = spec.path.as_path();
+    let (origin_m, window) = checked_placement(path, spec)?;
     let header = read_header(path)?;
+    let [x, y, z] = header.geometry.dims;
+    let what = format!("{x}x{y}x{z} voxels of {:?} samples", header.sample);
+    let texture = u64::from(x) * u64::from(y) * u64::from(z) * header.geometry.format.bytes() as u64;
+    let raw = match header.encoding {
+        Encoding::Ascii => ascii_text_limit(header.read_samples),
+        Encoding::Raw | Encoding::Gzip => header.read_samples.saturating_mul(header.sample.bytes() as u64),
+    };
+    check_conversion_memory(&header.data_file, &what, raw, header.read_samples, texture)?;
     let values = read_samples(&header)?;
     let data = match header.extra {
         ExtraAxis::Colour(c) => {
             values.chunks_exact(c).flat_map(|v| [v[0] as u8, v[1] as u8, v[2] as u8, 255]).collect()
         }
-        ExtraAxis::None | ExtraAxis::Volumes => grey_levels(&header.data_file, values, spec.window)?,
+        ExtraAxis::None | ExtraAxis::Volumes => grey_levels(&header.data_file, values, window)?,
     };
-    Ok(header.geometry.image(data, spec.origin_m))
+    Ok(header.geometry.image(data, origin_m))
 }

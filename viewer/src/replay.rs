@@ -26,7 +26,13 @@ pub struct ReplaySource {
     next: usize,
     /// Wall clock and simulated time of the first frame handed out.
     origin: Option<(Instant, f64)>,
+    /// Frames handed out with NaN or infinite positions (each warned about once).
+    non_finite_frames: Vec<usize>,
 }
+
+/// Largest simulated time a recording may list, in magnitude, s (as `lamina run --seconds`):
+/// frames are paced by these times, so one beyond it could never be waited for.
+pub const MAX_RECORDED_TIME_S: f64 = 1e9;
 
 /// Why a recording could not be opened for replay.
 #[derive(Debug, thiserror::Error)]
@@ -34,6 +40,21 @@ pub enum ReplayOpenError {
     /// The collection or its first frame could not be read.
     #[error(transparent)]
     Read(#[from] RecordReadError),
+    /// A frame's `timestep` is beyond [`MAX_RECORDED_TIME_S`].
+    #[error(
+        "{}: DataSet {index} ({}): timestep {} s is beyond the ±1e9 s a recording may list",
+        .pvd.display(), .file.display(), lamina_rt::format_value(*.time_s)
+    )]
+    Time {
+        /// The collection.
+        pvd: PathBuf,
+        /// The frame's position in time order, from 0.
+        index: usize,
+        /// The frame's file.
+        file: PathBuf,
+        /// The timestep given, s.
+        time_s: f64,
+    },
     /// The recording's point count differs from the model's node count.
     #[error(
         "{}: the recording has {recorded} nodes, the scene's model '{model}' {nodes}: give the scene it was recorded from with --scene",
@@ -55,11 +76,14 @@ impl ReplaySource {
     /// Opens the collection `pvd` to draw over `model`.
     ///
     /// # Errors
-    /// The collection cannot be read or lists no frame, the first frame cannot be read, or
-    /// its point count differs from the model's node count (the message says which scene to
-    /// give with `--scene`).
+    /// The collection cannot be read or lists no frame, a frame's time is beyond
+    /// [`MAX_RECORDED_TIME_S`], the first frame cannot be read, or its point count differs
+    /// from the model's node count (the message says which scene to give with `--scene`).
     pub fn open(pvd: &Path, model: ViewModel) -> Result<Self, ReplayOpenError> {
         let frames = read_recording(pvd)?;
+        if let Some((index, f)) = frames.iter().enumerate().find(|(_, f)| f.time.abs() > MAX_RECORDED_TIME_S) {
+            return Err(ReplayOpenError::Time { pvd: pvd.to_path_buf(), index, file: f.path.clone(), time_s: f.time });
+        }
         let first = read_recorded_points(&frames[0].path)?;
         if first.len() != model.node_count {
             return Err(ReplayOpenError::NodeCount {
@@ -69,7 +93,21 @@ impl ReplaySource {
                 nodes: model.node_count,
             });
         }
-        Ok(Self { model, frames, source: pvd.display().to_string(), model_sent: false, next: 0, origin: None })
+        Ok(Self {
+            model,
+            frames,
+            source: pvd.display().to_string(),
+            model_sent: false,
+            next: 0,
+            origin: None,
+            non_finite_frames: Vec::new(),
+        })
+    }
+
+    /// The frames handed out so far whose positions hold NaN or infinite values (drawn as
+    /// nothing), by their index in time order; each was warned about once.
+    pub fn non_finite_frames(&self) -> &[usize] {
+        &self.non_finite_frames
     }
 }
 
@@ -84,7 +122,8 @@ impl FrameSource for ReplaySource {
             return SourceEvent::Idle("replay finished (last frame shown)");
         };
         let (start, t0) = *self.origin.get_or_insert((Instant::now(), recorded.time));
-        let due = Duration::from_secs_f64((recorded.time - t0).max(0.0));
+        // Within ±1e9 s (checked at open): the difference is at most 2e9 s.
+        let due = Duration::try_from_secs_f64((recorded.time - t0).max(0.0)).unwrap_or(Duration::MAX);
         let wait = due.saturating_sub(start.elapsed());
         if wait > timeout {
             std::thread::sleep(timeout);
@@ -94,14 +133,27 @@ impl FrameSource for ReplaySource {
         let sequence = self.next as u64;
         self.next += 1;
         match read_recorded_points(&recorded.path) {
-            Ok(points) if points.len() == self.model.node_count => SourceEvent::Frame(Frame {
-                sequence,
-                sim_time_s: recorded.time,
-                publish_time_ns: 0,
-                positions: points.into_iter().map(Vec3::from).collect(),
-                tool: None,
-                stats: None,
-            }),
+            Ok(points) if points.len() == self.model.node_count => {
+                let bad = points.iter().filter(|p| !p.iter().all(|c| c.is_finite())).count();
+                if bad > 0 {
+                    tracing::warn!(
+                        "{}: frame {sequence} (t = {} s): {bad} of {} nodes have NaN or infinite positions, \
+                         which cannot be drawn",
+                        recorded.path.display(),
+                        recorded.time,
+                        points.len()
+                    );
+                    self.non_finite_frames.push(sequence as usize);
+                }
+                SourceEvent::Frame(Frame {
+                    sequence,
+                    sim_time_s: recorded.time,
+                    publish_time_ns: 0,
+                    positions: points.into_iter().map(Vec3::from).collect(),
+                    tool: None,
+                    stats: None,
+                })
+            }
             Ok(points) => {
                 tracing::warn!("{}: {} points, skipped", recorded.path.display(), points.len());
                 SourceEvent::Idle("replaying (a frame was skipped)")

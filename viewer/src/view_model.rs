@@ -101,21 +101,19 @@ pub struct ViewModel {
 pub struct VolumeSpec {
     /// The file: NIfTI-1 (`.nii`, `.nii.gz`) or NRRD (`.nrrd`, `.nhdr`), told apart by its name.
     pub path: std::path::PathBuf,
-    /// Position of the first voxel's centre, metres, model frame. `None`: the header's origin.
-    pub origin_m: Option<[f32; 3]>,
-    /// Intensities mapped to black and white, `[lo, hi]`. `None`: the data's minimum and maximum.
-    pub window: Option<[f32; 2]>,
+    /// Position of the first voxel's centre, metres, model frame (within `f32` when read).
+    /// `None`: the header's origin.
+    pub origin_m: Option<[f64; 3]>,
+    /// Intensities mapped to black and white, `[lo, hi]` (within `f32`, `lo` below `hi`,
+    /// when read). `None`: the data's minimum and maximum.
+    pub window: Option<[f64; 2]>,
 }
 
 impl VolumeSpec {
     /// The volume of a scene's `[visual]` table, if it names one.
     pub fn from_scene(scene: &lamina_core::scene::Scene) -> Option<Self> {
         let visual = scene.visual.as_ref()?;
-        Some(Self {
-            path: visual.volume.clone(),
-            origin_m: visual.origin_m.map(|o| o.map(|c| c as f32)),
-            window: visual.window.map(|w| w.map(|c| c as f32)),
-        })
+        Some(Self { path: visual.volume.clone(), origin_m: visual.origin_m, window: visual.window })
     }
 }
 
@@ -228,8 +226,8 @@ impl ViewModel {
         view.node_tissue = topology.node_layer.iter().map(|&l| layer_tissue(l)).collect();
         view.volume = topology.volume.as_ref().filter(|v| !v.path.is_empty()).map(|v| VolumeSpec {
             path: v.path.clone().into(),
-            origin_m: v.origin_m.map(|o| o.map(|c| c as f32)),
-            window: v.window.map(|w| w.map(|c| c as f32)),
+            origin_m: v.origin_m,
+            window: v.window,
         });
         view
     }

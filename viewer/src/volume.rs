@@ -178,6 +178,29 @@ pub enum VolumeError {
         /// Texture bytes it would take.
         bytes: u64,
     },
+    /// The file is not a regular file (a FIFO, a device, a directory), or cannot be opened.
+    #[error("volume {0}")]
+    File(lamina_input::FileReadError),
+    /// A header field or a `[visual]` setting is outside its bound.
+    #[error("volume {}: {field} {value}: {bound}", .path.display())]
+    Field {
+        /// File.
+        path: PathBuf,
+        /// The field: `pixdim[1]`, `vox_offset`, `spacings`, `visual.window`, ...
+        field: &'static str,
+        /// The value given.
+        value: String,
+        /// What it must be.
+        bound: String,
+    },
+    /// Reading and converting the voxels would take more memory than is available.
+    #[error("volume {}: {error}", .path.display())]
+    Memory {
+        /// File.
+        path: PathBuf,
+        /// The refusal, with the estimate and what is available.
+        error: lamina_input::MemoryCheckError,
+    },
     /// Some voxels are NaN or infinite.
     #[error("volume {}: {count} voxels are NaN or infinite (the first is voxel {first})", .path.display())]
     NonFinite {
@@ -217,16 +240,158 @@ impl VolumeGeometry {
     }
 }
 
+/// Volume files this viewer opens: regular files only (never a FIFO or a device, which
+/// would block or never end), up to 16 GiB (a 1 GiB texture of 64-bit samples, twice
+/// over). The memory their voxels take is estimated from the header instead
+/// ([`check_conversion_memory`]).
+const VOLUME_FILE: lamina_input::FileLimit = lamina_input::FileLimit::new("volume file", 16 << 30).memory_per_byte(0);
+
+/// Checks that `path` is a regular volume file within [`VOLUME_FILE`]'s cap, without
+/// opening anything that could block; returns the opened file and its size, bytes.
+pub(crate) fn open_volume_file(path: &Path) -> Result<(std::fs::File, u64), VolumeError> {
+    lamina_input::open_regular(path, &VOLUME_FILE).map_err(|e| match e {
+        lamina_input::FileReadError::Io { path, message } => VolumeError::Io { path, message },
+        other => VolumeError::File(other),
+    })
+}
+
+/// Smallest and largest voxel spacing accepted, metres: the normal `f32` range the texture
+/// coordinates are computed in (a subnormal spacing loses its precision, a larger one is
+/// infinite).
+pub const SPACING_RANGE_M: [f64; 2] = [f32::MIN_POSITIVE as f64, f32::MAX as f64];
+
+/// `v` as messages show it (scientific notation beyond a few digits).
+fn shown(v: f64) -> String {
+    lamina_rt::format_value(v)
+}
+
+/// A volume's geometry, each value checked after conversion to metres: spacings in
+/// [`SPACING_RANGE_M`] with the whole extent (voxels × spacing) within `f32`, and an origin
+/// within `f32`. `spacing_field` and `origin_field` name the header fields in the errors;
+/// `unit_m` is metres per unit of the header's values.
+pub(crate) fn checked_geometry(
+    path: &Path,
+    dims: [u32; 3],
+    (spacing, spacing_field): ([f64; 3], &'static str),
+    (origin, origin_field): ([f64; 3], &'static str),
+    unit_m: f64,
+    format: VoxelFormat,
+) -> Result<VolumeGeometry, VolumeError> {
+    let field =
+        |field, value: String, bound: String| VolumeError::Field { path: path.to_path_buf(), field, value, bound };
+    let list = |v: [f64; 3]| format!("[{}, {}, {}]", shown(v[0]), shown(v[1]), shown(v[2]));
+    let [lo, hi] = SPACING_RANGE_M;
+    for k in 0..3 {
+        let metres = spacing[k] * unit_m;
+        let extent = metres * f64::from(dims[k]);
+        if !(metres >= lo && metres <= hi && extent <= hi) {
+            let bound = format!(
+                "axis {k} spacing is {} m; each must be from {} m to {} m (the normal f32 range) \
+                 and, times the {} voxels along its axis, at most {} m",
+                shown(metres),
+                shown(lo),
+                shown(hi),
+                dims[k],
+                shown(hi)
+            );
+            return Err(field(spacing_field, list(spacing), bound));
+        }
+    }
+    let origin_m = origin.map(|c| c * unit_m);
+    if !origin_m.iter().all(|c| c.abs() <= hi) {
+        let bound = format!("is {} m; each coordinate must be within ±{} m (f32)", list(origin_m), shown(hi));
+        return Err(field(origin_field, list(origin), bound));
+    }
+    Ok(VolumeGeometry {
+        dims,
+        spacing_m: Vec3::from_array((spacing.map(|c| c * unit_m)).map(|c| c as f32)),
+        origin_m: Vec3::from_array(origin_m.map(|c| c as f32)),
+        format,
+    })
+}
+
+/// Where a volume's first voxel goes (metres, `f32`; `None`: the header's origin) and its
+/// intensity window (`None`: the data's range).
+pub(crate) type Placement = (Option<[f32; 3]>, Option<[f64; 2]>);
+
+/// The placement a [`VolumeSpec`] asks for, checked: an origin within `f32` (metres) and a
+/// window `[lo, hi]` within `f32` with `lo < hi` (the scene's `visual.origin_m` and
+/// `visual.window`).
+pub(crate) fn checked_placement(path: &Path, spec: &VolumeSpec) -> Result<Placement, VolumeError> {
+    let max = f64::from(f32::MAX);
+    let field =
+        |field, value: String, bound: String| VolumeError::Field { path: path.to_path_buf(), field, value, bound };
+    if let Some(o) = spec.origin_m
+        && !o.iter().all(|c| c.abs() <= max)
+    {
+        let value = format!("[{}, {}, {}]", shown(o[0]), shown(o[1]), shown(o[2]));
+        return Err(field("visual.origin_m", value, format!("each coordinate must be within ±{} m (f32)", shown(max))));
+    }
+    if let Some([lo, hi]) = spec.window
+        && !(lo.abs() <= max && hi.abs() <= max && (lo as f32) < (hi as f32))
+    {
+        let value = format!("[{}, {}]", shown(lo), shown(hi));
+        let bound = format!("must be [lo, hi] within ±{} (f32) with lo below hi", shown(max));
+        return Err(field("visual.window", value, bound));
+    }
+    Ok((spec.origin_m.map(|o| o.map(|c| c as f32)), spec.window))
+}
+
+/// Refuses a volume whose reading and conversion would take more memory than is available
+/// ([`lamina_input::check_memory`]), before anything is allocated: `raw_bytes` as read from
+/// the file, `values` samples converted to 64-bit floats (8 bytes each; 0 for a colour
+/// volume) and the texture of `texture_bytes`. `what` names the voxels in the message.
+pub(crate) fn check_conversion_memory(
+    path: &Path,
+    what: &str,
+    raw_bytes: u64,
+    values: u64,
+    texture_bytes: u64,
+) -> Result<(), VolumeError> {
+    let needed = values.checked_mul(8).and_then(|f| f.checked_add(raw_bytes)?.checked_add(texture_bytes));
+    let request = if values > 0 {
+        format!(
+            "reading {what} ({}) and converting them to 64-bit floats ({})",
+            bytes(raw_bytes),
+            bytes(values.saturating_mul(8))
+        )
+    } else {
+        format!("reading {what} ({})", bytes(raw_bytes))
+    };
+    lamina_input::check_memory(&request, needed.unwrap_or(u64::MAX))
+        .map_err(|error| VolumeError::Memory { path: path.to_path_buf(), error })
+}
+
+fn bytes(n: u64) -> String {
+    lamina_input::format_bytes(n)
+}
+
+/// `values` as 64-bit floats, allocated fallibly: a refusal, not an abort, when the memory is
+/// not there.
+pub(crate) fn try_to_f64<T: Copy>(
+    path: &Path,
+    values: impl ExactSizeIterator<Item = T>,
+    f: impl Fn(T) -> f64,
+) -> Result<Vec<f64>, VolumeError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(values.len()).map_err(|e| VolumeError::Io {
+        path: path.to_path_buf(),
+        message: format!("cannot allocate {} voxels as 64-bit floats: {e}", values.len()),
+    })?;
+    out.extend(values.map(f));
+    Ok(out)
+}
+
 /// Grey levels (0 black, 255 white) of the voxel values of `path` through `window`
 /// (`[lo, hi]`; `None`: the values' minimum and maximum). Refuses NaN and infinite values.
-pub(crate) fn grey_levels(path: &Path, values: Vec<f64>, window: Option<[f32; 2]>) -> Result<Vec<u8>, VolumeError> {
+pub(crate) fn grey_levels(path: &Path, values: Vec<f64>, window: Option<[f64; 2]>) -> Result<Vec<u8>, VolumeError> {
     let non_finite = values.iter().filter(|v| !v.is_finite()).count();
     if non_finite > 0 {
         let first = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
         return Err(VolumeError::NonFinite { path: path.to_path_buf(), count: non_finite, first });
     }
     let [lo, hi] = match window {
-        Some([lo, hi]) => [f64::from(lo), f64::from(hi)],
+        Some([lo, hi]) => [lo, hi],
         None => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &v| [lo.min(v), hi.max(v)]),
     };
     let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
@@ -241,13 +406,21 @@ fn nifti_error(path: &Path, e: nifti::NiftiError) -> VolumeError {
 }
 
 /// Reads and checks the header of a NIfTI-1 file (`.nii`, or `.nii.gz` gzip-compressed):
-/// at least three dimensions (a 4-D file gives its first volume), positive finite spacing, a
-/// voxel type the viewer reads (8- to 64-bit integers, 32- and 64-bit floats, RGB24), and a
-/// texture of at most [`MAX_TEXTURE_BYTES`]. Lengths in the header's units (metres,
-/// millimetres, micrometres; unknown: millimetres) are converted to metres. The volume's axes
-/// are taken along the model's x, y and z: rotations and flips in the header are not applied.
+/// a regular file, at least three dimensions (a 4-D file gives its first volume), a voxel
+/// type the viewer reads (8- to 64-bit integers, 32- and 64-bit floats, RGB24), a texture of
+/// at most [`MAX_TEXTURE_BYTES`], voxels that start where the header and its extensions end
+/// (`vox_offset`), and, after conversion to metres (the header's units: metres,
+/// millimetres, micrometres; unknown: millimetres), spacings in [`SPACING_RANGE_M`] and an
+/// origin within `f32`. The volume's axes are taken along the model's x, y and z: rotations
+/// and flips in the header are not applied.
 pub fn read_nifti_header(path: &Path) -> Result<VolumeGeometry, VolumeError> {
+    nifti_header(path).map(|(geometry, _)| geometry)
+}
+
+/// The NIfTI-1 header of `path`, checked ([`read_nifti_header`]), and its geometry.
+fn nifti_header(path: &Path) -> Result<(VolumeGeometry, nifti::NiftiHeader), VolumeError> {
     use nifti::NiftiType;
+    drop(open_volume_file(path)?);
     let header = nifti::NiftiHeader::from_file(path).map_err(|e| nifti_error(path, e))?;
     let bad = |message: String| VolumeError::Header { path: path.to_path_buf(), message };
     let dim = header.dim().map_err(|e| bad(e.to_string()))?;
@@ -274,41 +447,136 @@ pub fn read_nifti_header(path: &Path) -> Result<VolumeGeometry, VolumeError> {
     if bytes > MAX_TEXTURE_BYTES {
         return Err(VolumeError::TooLarge { path: path.to_path_buf(), dims: dims.map(u64::from), bytes });
     }
+    check_vox_offset(path, &header)?;
     let unit_m = match header.xyzt_units & 0x07 {
         1 => 1.0,
         3 => 1.0e-6,
         _ => 1.0e-3,
     };
-    let spacing = Vec3::new(header.pixdim[1], header.pixdim[2], header.pixdim[3]).abs();
-    if !(spacing.is_finite() && spacing.min_element() > 0.0) {
-        return Err(bad(format!("voxel spacing {spacing:?} must be finite and positive")));
-    }
-    let origin = if header.sform_code > 0 {
-        Vec3::new(header.srow_x[3], header.srow_y[3], header.srow_z[3])
+    let spacing = [1, 2, 3].map(|k| f64::from(header.pixdim[k]));
+    let (origin, origin_field) = if header.sform_code > 0 {
+        ([header.srow_x[3], header.srow_y[3], header.srow_z[3]], "srow_x/y/z[3] (sform offset)")
     } else if header.qform_code > 0 {
-        Vec3::new(header.quatern_x, header.quatern_y, header.quatern_z)
+        ([header.quatern_x, header.quatern_y, header.quatern_z], "qoffset_x/y/z (qform offset)")
     } else {
-        Vec3::ZERO
+        ([0.0; 3], "origin")
     };
-    if !origin.is_finite() {
-        return Err(bad(format!("origin {origin:?} is not finite")));
+    let geometry =
+        checked_geometry(path, dims, (spacing, "pixdim[1..3]"), (origin.map(f64::from), origin_field), unit_m, format)?;
+    Ok((geometry, header))
+}
+
+/// Largest run of NIfTI extensions read between the header and the voxels, bytes.
+pub const MAX_NIFTI_EXTENSION_BYTES: u64 = 64 << 20;
+
+/// Refuses a NIfTI-1 file whose `vox_offset` is not where its voxels are read from: the
+/// end of the 348-byte header, the 4-byte extender and any extensions in a single `.nii`
+/// file; byte 0 of the `.img` of a `.hdr`/`.img` pair (whose `.img` must be a regular file).
+fn check_vox_offset(path: &Path, header: &nifti::NiftiHeader) -> Result<(), VolumeError> {
+    let v = f64::from(header.vox_offset);
+    let refuse =
+        |bound: String| VolumeError::Field { path: path.to_path_buf(), field: "vox_offset", value: shown(v), bound };
+    if &header.magic == b"ni1\0" {
+        if v != 0.0 {
+            return Err(refuse(
+                "the voxels of a .hdr/.img pair are read from the start of the .img: it must be 0".into(),
+            ));
+        }
+        let img = path.with_extension("img");
+        let gz = path.with_extension("img.gz");
+        drop(open_volume_file(if gz.exists() { &gz } else { &img })?);
+        return Ok(());
     }
-    Ok(VolumeGeometry { dims, spacing_m: spacing * unit_m, origin_m: origin * unit_m, format })
+    let header_end = 352.0;
+    if !(header_end..=header_end + MAX_NIFTI_EXTENSION_BYTES as f64).contains(&v) {
+        return Err(refuse(format!(
+            "the voxels start after the 352 bytes of header and extender, and at most {} bytes of extensions",
+            MAX_NIFTI_EXTENSION_BYTES
+        )));
+    }
+    let extensions = nifti_extension_bytes(path, header, v as u64 - 352)?;
+    if v != header_end + extensions as f64 {
+        let has =
+            if extensions == 0 { "no extensions".to_string() } else { format!("{extensions} bytes of extensions") };
+        return Err(refuse(format!(
+            "the voxels are read from where the header ends, byte {} (352 bytes of header and extender, {has}); \
+             voxels placed elsewhere are not read",
+            352 + extensions
+        )));
+    }
+    Ok(())
+}
+
+/// Bytes of extensions after the 352 bytes of header and extender of a single-file NIfTI-1
+/// volume (`.nii`, or gzip-compressed), walked up to `within` bytes: each extension starts
+/// with its size (a multiple of 16, at least 16) and code; the walk ends at the first size
+/// that is not one.
+fn nifti_extension_bytes(path: &Path, header: &nifti::NiftiHeader, within: u64) -> Result<u64, VolumeError> {
+    use std::io::Read;
+    let (file, _) = open_volume_file(path)?;
+    let mut reader = std::io::BufReader::new(file);
+    let gzip = {
+        use std::io::BufRead;
+        let head =
+            reader.fill_buf().map_err(|e| VolumeError::Io { path: path.to_path_buf(), message: e.to_string() })?;
+        head.starts_with(&[0x1f, 0x8b])
+    };
+    let mut source: Box<dyn Read> =
+        if gzip { Box::new(flate2::bufread::MultiGzDecoder::new(reader)) } else { Box::new(reader) };
+    let io = |e: std::io::Error| VolumeError::Io { path: path.to_path_buf(), message: e.to_string() };
+    let mut head = [0u8; 352];
+    source.read_exact(&mut head).map_err(io)?;
+    if head[348] == 0 {
+        return Ok(0);
+    }
+    let mut walked = 0u64;
+    while walked < within {
+        let mut word = [0u8; 8];
+        source.read_exact(&mut word).map_err(io)?;
+        let esize = match header.endianness {
+            nifti::Endianness::Little => i32::from_le_bytes([word[0], word[1], word[2], word[3]]),
+            nifti::Endianness::Big => i32::from_be_bytes([word[0], word[1], word[2], word[3]]),
+        };
+        if esize < 16 || esize % 16 != 0 {
+            // Not an extension: the extensions end here, before `vox_offset`.
+            break;
+        }
+        let rest = u64::from(esize.unsigned_abs()) - 8;
+        let skipped = std::io::copy(&mut (&mut source).take(rest), &mut std::io::sink()).map_err(io)?;
+        if skipped < rest {
+            return Err(VolumeError::Io {
+                path: path.to_path_buf(),
+                message: format!("ends within its extension at byte {}", 352 + walked),
+            });
+        }
+        walked += u64::from(esize.unsigned_abs());
+    }
+    Ok(walked)
 }
 
 /// Reads the volume of `spec` (see [`read_nifti_header`] for what is accepted): grey volumes
 /// go through the intensity window (`spec.window`, default the data's minimum and maximum,
 /// after the header's `scl_slope`/`scl_inter` scaling), RGB ones are kept as colours. The
-/// first voxel's centre is at `spec.origin_m`, default the header's origin.
+/// first voxel's centre is at `spec.origin_m`, default the header's origin. The memory that
+/// reading and converting takes is estimated from the header and refused, before anything is
+/// allocated, when more than is available.
 pub fn read_nifti(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
     use nifti::{NiftiObject, NiftiType, NiftiVolume, ReaderOptions};
     let path = spec.path.as_path();
-    let geometry = read_nifti_header(path)?;
+    let (origin_m, window) = checked_placement(path, spec)?;
+    let (geometry, header) = nifti_header(path)?;
+    let all_voxels = header.dim().map_or(u64::MAX, |d| d.iter().map(|&n| u64::from(n)).product::<u64>());
+    let sample_bytes = u64::from(header.bitpix.max(8) as u16 / 8);
+    let count = geometry.dims.iter().map(|&n| n as usize).product::<usize>();
+    let [x, y, z] = geometry.dims;
+    let what = format!("{x}x{y}x{z} voxels of {:?}", header.data_type().unwrap_or(NiftiType::Uint8));
+    let grey_values = if geometry.format == VoxelFormat::Grey { count as u64 } else { 0 };
+    let texture = count as u64 * geometry.format.bytes() as u64;
+    check_conversion_memory(path, &what, all_voxels.saturating_mul(sample_bytes), grey_values, texture)?;
     let object = ReaderOptions::new().read_file(path).map_err(|e| nifti_error(path, e))?;
     let (slope, inter) = (object.header().scl_slope, object.header().scl_inter);
     let volume = object.into_volume();
     let datatype = volume.data_type();
-    let count = geometry.dims.iter().map(|&n| n as usize).product::<usize>();
     let bad = |e: nifti::NiftiError| nifti_error(path, e);
     let data = match geometry.format {
         VoxelFormat::Rgba => {
@@ -323,26 +591,31 @@ pub fn read_nifti(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
             raw.chunks_exact(stride).take(count).flat_map(|c| [c[0], c[1], c[2], 255]).collect()
         }
         VoxelFormat::Grey => {
-            fn as_f64<T: Copy + Into<f64>>(v: Vec<T>) -> Vec<f64> {
-                v.into_iter().map(Into::into).collect()
+            fn as_f64<T: Copy + Into<f64>>(path: &Path, v: Vec<T>, count: usize) -> Result<Vec<f64>, VolumeError> {
+                try_to_f64(path, v.into_iter().take(count), Into::into)
             }
             let mut values: Vec<f64> = match datatype {
-                NiftiType::Uint8 => as_f64(volume.into_nifti_typed_data::<u8>().map_err(bad)?),
-                NiftiType::Int8 => as_f64(volume.into_nifti_typed_data::<i8>().map_err(bad)?),
-                NiftiType::Uint16 => as_f64(volume.into_nifti_typed_data::<u16>().map_err(bad)?),
-                NiftiType::Int16 => as_f64(volume.into_nifti_typed_data::<i16>().map_err(bad)?),
-                NiftiType::Uint32 => as_f64(volume.into_nifti_typed_data::<u32>().map_err(bad)?),
-                NiftiType::Int32 => as_f64(volume.into_nifti_typed_data::<i32>().map_err(bad)?),
+                NiftiType::Uint8 => as_f64(path, volume.into_nifti_typed_data::<u8>().map_err(bad)?, count)?,
+                NiftiType::Int8 => as_f64(path, volume.into_nifti_typed_data::<i8>().map_err(bad)?, count)?,
+                NiftiType::Uint16 => as_f64(path, volume.into_nifti_typed_data::<u16>().map_err(bad)?, count)?,
+                NiftiType::Int16 => as_f64(path, volume.into_nifti_typed_data::<i16>().map_err(bad)?, count)?,
+                NiftiType::Uint32 => as_f64(path, volume.into_nifti_typed_data::<u32>().map_err(bad)?, count)?,
+                NiftiType::Int32 => as_f64(path, volume.into_nifti_typed_data::<i32>().map_err(bad)?, count)?,
                 NiftiType::Uint64 => {
-                    volume.into_nifti_typed_data::<u64>().map_err(bad)?.into_iter().map(|v| v as f64).collect()
+                    let v = volume.into_nifti_typed_data::<u64>().map_err(bad)?;
+                    try_to_f64(path, v.into_iter().take(count), |v| v as f64)?
                 }
                 NiftiType::Int64 => {
-                    volume.into_nifti_typed_data::<i64>().map_err(bad)?.into_iter().map(|v| v as f64).collect()
+                    let v = volume.into_nifti_typed_data::<i64>().map_err(bad)?;
+                    try_to_f64(path, v.into_iter().take(count), |v| v as f64)?
                 }
-                NiftiType::Float32 => as_f64(volume.into_nifti_typed_data::<f32>().map_err(bad)?),
-                _ => volume.into_nifti_typed_data::<f64>().map_err(bad)?,
+                NiftiType::Float32 => as_f64(path, volume.into_nifti_typed_data::<f32>().map_err(bad)?, count)?,
+                _ => {
+                    let mut v = volume.into_nifti_typed_data::<f64>().map_err(bad)?;
+                    v.truncate(count);
+                    v
+                }
             };
-            values.truncate(count);
             if values.len() < count {
                 return Err(VolumeError::Header {
                     path: path.to_path_buf(),
@@ -353,10 +626,10 @@ pub fn read_nifti(spec: &VolumeSpec) -> Result<VolumeImage, VolumeError> {
                 let (slope, inter) = (f64::from(slope), f64::from(inter));
                 values.iter_mut().for_each(|v| *v = *v * slope + inter);
             }
-            grey_levels(path, values, spec.window)?
+            grey_levels(path, values, window)?
         }
     };
-    Ok(geometry.image(data, spec.origin_m))
+    Ok(geometry.image(data, origin_m))
 }
 
 /// A source that gives every model it passes on the volume `spec` (`lamina-viewer --volume`).

@@ -144,7 +144,7 @@ fn bad_nrrd_files_fail() {
         ("dims.nrrd", good.replace("dimension: 3", "dimension: 2"), "three spatial axes", 3),
         ("sizes.nrrd", good.replace("sizes: 2 1 1", "sizes: 2 1"), "2 entries for 3 axes", 4),
         ("zero.nrrd", good.replace("sizes: 2 1 1", "sizes: 2 0 1"), "at least 1", 4),
-        ("spacing.nrrd", good.replace("spacings: 1 1 1", "spacings: 1 nan 1"), "finite and positive", 5),
+        ("spacing.nrrd", good.replace("spacings: 1 1 1", "spacings: 1 nan 1"), "axis 1 spacing is NaN m", 5),
         ("bzip2.nrrd", good.replace("raw", "bzip2"), "encoding \"bzip2\" is not read", 6),
         ("missing.nrrd", good.replace("sizes: 2 1 1\n", ""), "no \"sizes:\" field", 5),
         ("endian.nrrd", good.replace("uchar", "short"), "no \"endian:\" field", 6),

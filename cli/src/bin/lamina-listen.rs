@@ -36,13 +36,13 @@ struct Args {
     /// Poll or block.
     #[arg(long, value_enum, default_value_t = Mode::Block)]
     mode: Mode,
-    /// Run time in seconds (then write the report and exit).
+    /// Run time in seconds (then write the report and exit): above 0, at most 1e9.
     #[arg(long, default_value_t = 10.0)]
     seconds: f64,
     /// Report file; default: standard output.
     #[arg(long)]
     out: Option<std::path::PathBuf>,
-    /// Pin this process to a CPU index.
+    /// Pin this process to a CPU index, one it may run on (another is refused).
     #[arg(long)]
     pin: Option<usize>,
     /// Print a progress line every N frames (0: never).
@@ -125,6 +125,9 @@ impl Tally {
     }
 }
 
+/// Longest `--seconds` accepted, s (about 32 years, as for `lamina run`).
+const MAX_SECONDS: f64 = 1e9;
+
 /// Set by the SIGINT/SIGTERM handler (lamina-rt's signal module).
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
@@ -140,13 +143,12 @@ fn main() -> std::process::ExitCode {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
+    let run_for = lamina_rt::seconds_option("--seconds", args.seconds, MAX_SECONDS)?;
+    if let Some(cpu) = args.pin {
+        lamina_rt::pin_for_option("--pin", cpu)?;
+    }
     if let Err(e) = lamina_rt::install_stop_handler(&STOP) {
         eprintln!("lamina-listen: {e}; no report on SIGTERM");
-    }
-    if let Some(cpu) = args.pin
-        && !core_affinity::set_for_current(core_affinity::CoreId { id: cpu })
-    {
-        eprintln!("lamina-listen: could not pin to CPU {cpu}; running unpinned");
     }
     let cfg = BridgeConfig {
         file_prefix: args.file_prefix.clone(),
@@ -170,7 +172,6 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut receive_errors = 0u64;
     let mut first_frame_after_ns = None;
     let start = Instant::now();
-    let run_for = Duration::try_from_secs_f64(args.seconds.max(0.0)).unwrap_or(Duration::MAX);
     let slice = Duration::from_millis(50);
     let mut stdout = std::io::stdout();
 

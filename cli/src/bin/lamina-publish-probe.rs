@@ -18,13 +18,13 @@ use serde::Serialize;
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {
-    /// Nodes per frame.
+    /// Nodes per frame, from 1 to 1,000,000.
     #[arg(long, default_value_t = 2769)]
     nodes: usize,
-    /// Frames per second.
+    /// Frames per second, from 0.001 to 1e6.
     #[arg(long, default_value_t = 1000.0)]
     rate: f64,
-    /// Run time in seconds.
+    /// Run time in seconds: above 0, at most 1e9.
     #[arg(long, default_value_t = 10.0)]
     seconds: f64,
     /// Service prefix of the simulation.
@@ -33,7 +33,7 @@ struct Args {
     /// iceoryx2 file prefix (domain); default iceoryx2's own.
     #[arg(long)]
     file_prefix: Option<String>,
-    /// Pin this process to a CPU index.
+    /// Pin this process to a CPU index, one it may run on (another is refused).
     #[arg(long)]
     pin: Option<usize>,
     /// Before starting, wait up to 10 s for this many subscribers.
@@ -55,6 +55,17 @@ struct Summary {
     delivered_total: u64,
 }
 
+/// Most `--nodes` accepted: the node service holds 146 frames of 12 bytes per node in
+/// `/dev/shm`, 1.75 GB at this count.
+const MAX_NODES: usize = 1_000_000;
+
+/// Slowest and fastest `--rate` accepted, frames per second.
+const MIN_RATE_HZ: f64 = 1e-3;
+const MAX_RATE_HZ: f64 = 1e6;
+
+/// Longest `--seconds` accepted, s (about 32 years, as for `lamina run`).
+const MAX_SECONDS: f64 = 1e9;
+
 /// Set by the SIGINT/SIGTERM handler (lamina-rt's signal module).
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
@@ -70,15 +81,23 @@ fn main() -> std::process::ExitCode {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
-    if !(args.rate.is_finite() && args.rate > 0.0) {
-        return Err("--rate must be a positive number".into());
+    if !(MIN_RATE_HZ..=MAX_RATE_HZ).contains(&args.rate) {
+        let rate = lamina_rt::format_value(args.rate);
+        return Err(format!("--rate {rate}: must be from {MIN_RATE_HZ} to {MAX_RATE_HZ:e} frames per second").into());
+    }
+    if !(1..=MAX_NODES).contains(&args.nodes) {
+        return Err(format!(
+            "--nodes {}: must be from 1 to {MAX_NODES} (the node service's shared memory is sized for 146 frames \
+             of 12 bytes per node: 1.75 GB of /dev/shm at the most)",
+            args.nodes
+        )
+        .into());
+    }
+    let run_for = lamina_rt::seconds_option("--seconds", args.seconds, MAX_SECONDS)?;
+    if let Some(cpu) = args.pin {
+        lamina_rt::pin_for_option("--pin", cpu)?;
     }
     let _ = lamina_rt::install_stop_handler(&STOP);
-    if let Some(cpu) = args.pin
-        && !core_affinity::set_for_current(core_affinity::CoreId { id: cpu })
-    {
-        eprintln!("lamina-publish-probe: could not pin to CPU {cpu}; running unpinned");
-    }
     let cfg = BridgeConfig {
         file_prefix: args.file_prefix.clone(),
         node_name: Some("lamina-publish-probe".into()),
@@ -96,7 +115,6 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     }
 
     let period_ns = (1e9 / args.rate).max(1.0) as u64;
-    let run_for = Duration::try_from_secs_f64(args.seconds.max(0.0)).unwrap_or(Duration::MAX);
     let dt = 1.0 / args.rate;
     let (mut sent, mut errors, mut overruns, mut max_call, mut delivered_total) = (0u64, 0u64, 0u64, 0u64, 0u64);
     let start = Instant::now();
