@@ -41,3 +41,37 @@ fn builtin_default_scene_is_the_documented_limb_works() {
     assert_eq!(model.nodes.len(), w * (7 * h + 1));
     assert_eq!(model.springs.len(), 7_608, "the README's spring count");
 }
+
+/// Every shipped scene with a haptics tool puts the device's workspace centre one tool radius
+/// out from the outer skin (within 2 mm), so device z = 0 is the tool just touching and a
+/// press goes into the tissue.
+#[test]
+fn shipped_haptics_tools_start_one_radius_from_the_skin_works() {
+    use lamina_core::scene::ToolSource;
+    let mut checked = Vec::new();
+    for entry in std::fs::read_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config/scenes")).unwrap() {
+        let path = entry.unwrap().path();
+        let scene = Scene::load(&path).unwrap();
+        let Some(tool) = scene.tool else { continue };
+        let ToolSource::Haptics { device_origin, .. } = tool.source else { continue };
+        let model = scene.build_model().unwrap();
+        let skin = model.surfaces.iter().find(|s| s.name == "skin_outer").expect("an outer skin");
+        let nearest = skin
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&v| {
+                let p = model.nodes.position[v as usize];
+                (0..3).map(|c| (p[c] - device_origin[c]).powi(2)).sum::<f64>().sqrt()
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (nearest - tool.radius).abs() < 2e-3,
+            "{}: the device centre is {nearest} m from the skin",
+            path.display()
+        );
+        checked.push(path.file_name().unwrap().to_string_lossy().to_string());
+    }
+    checked.sort();
+    assert!(checked.contains(&"thigh.toml".to_string()) && checked.len() >= 4, "{checked:?}");
+}
