@@ -224,7 +224,7 @@ fn settle(model: &mut Model, skin_volume: Option<f64>) -> Result<(u32, f64), InV
     let mut dt = SETTLE_DT;
     for step in 1..=SETTLE_MAX_STEPS {
         sim.step();
-        let before = moved;
+        let previous = moved;
         moved = 0.0f64;
         for (i, before) in last.iter_mut().enumerate() {
             let now = sim.state().x.get_f64(i);
@@ -234,7 +234,7 @@ fn settle(model: &mut Model, skin_volume: Option<f64>) -> Result<(u32, f64), InV
         }
         // Halve the step when it moved the model more than the one before: near rest a long
         // linearised step overshoots across fat's kink, and does so again if lengthened.
-        if moved > before && dt > SETTLE_MIN_DT {
+        if moved > previous && dt > SETTLE_MIN_DT {
             // Restart from the positions reached, at rest, with half the step.
             dt = (dt * 0.5).max(SETTLE_MIN_DT);
             let mut at = model.clone();

@@ -12,21 +12,29 @@
 /// use lamina_core::scene::{Scene, ToolSource};
 /// use lamina_core::solver::{IntegratorKind, LateBuild, MultirateSettings, Simulation, SphereTool};
 ///
-/// let scene = Scene::builtin_default(); let model = scene.build_model()?; let tool =
-/// scene.tool.expect("the default scene has a tool"); let ToolSource::Haptics { device_origin: top,
-/// .. } = tool.source else { unreachable!() }; let mut params = scene.solver.clone();
-/// params.integrator = IntegratorKind::ImplicitFactored; // Work late on the bulk's thread waited
-/// for: the same result however fast this machine. let late_build = LateBuild::Wait;
-/// params.multirate = Some(MultirateSettings { centre: top, late_build,
-/// ..MultirateSettings::default() }); let mut effects = scene.effects.clone(); effects.tool =
-/// Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: top, velocity: [0.0; 3]
-/// }); let mut sim = Simulation::<f32>::new(&model, params, effects)?; for k in 1..=200 {     // 4
-/// mm into the skin over 0.2 s.     let depth = 0.004 * f64::from(k) / 200.0;
-/// sim.effects_mut().tool.as_mut().unwrap().start = [top[0], top[1] - depth, top[2]];
-/// sim.step(); } let status = sim.multirate_status().expect("multirate on");
-/// assert_eq!(status.bulk_steps, 200 / 8); assert!(status.region_nodes < status.bulk_nodes);
-/// assert!(sim.tool_feedback().force[1] > 0.0); // the tissue pushes the tool up # Ok::<(), Box<dyn
-/// std::error::Error>>(())
+/// let scene = Scene::builtin_default();
+/// let model = scene.build_model()?;
+/// let tool = scene.tool.expect("the default scene has a tool");
+/// let ToolSource::Haptics { device_origin: top, .. } = tool.source else { unreachable!() };
+/// let mut params = scene.solver.clone();
+/// params.integrator = IntegratorKind::ImplicitFactored;
+/// // Work late on the bulk's thread waited for: the same result however fast this machine.
+/// let late_build = LateBuild::Wait;
+/// params.multirate = Some(MultirateSettings { centre: top, late_build, ..MultirateSettings::default() });
+/// let mut effects = scene.effects.clone();
+/// effects.tool = Some(SphereTool { radius: tool.radius, stiffness: tool.stiffness, start: top, velocity: [0.0; 3] });
+/// let mut sim = Simulation::<f32>::new(&model, params, effects)?;
+/// for k in 1..=200 {
+///     // 4 mm into the skin over 0.2 s.
+///     let depth = 0.004 * f64::from(k) / 200.0;
+///     sim.effects_mut().tool.as_mut().unwrap().start = [top[0], top[1] - depth, top[2]];
+///     sim.step();
+/// }
+/// let status = sim.multirate_status().expect("multirate on");
+/// assert_eq!(status.bulk_steps, 200 / 8);
+/// assert!(status.region_nodes < status.bulk_nodes);
+/// assert!(sim.tool_feedback().force[1] > 0.0); // the tissue pushes the tool up
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MultirateSettings {
