@@ -168,6 +168,8 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
             opts.seconds, opts.rate_hz
         ));
     }
+    super::run::check_cpu("--cpu", opts.cpu)?;
+    super::run::check_cpu("--standby-cpu", opts.standby.map(|s| s.cpu))?;
     let cpu = super::run::cpu_or_last(opts.cpu);
     let mut request = RealtimeRequest::new().lock_memory();
     request.cpu = cpu;

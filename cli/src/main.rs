@@ -164,7 +164,7 @@ enum Command {
         /// it exists, else the shipped targets built into this binary.
         #[arg(long)]
         materials: Option<PathBuf>,
-        /// Grid sizes of the limb to fit for, comma-separated WxH.
+        /// Grid sizes of the limb to fit for, comma-separated WxH: columns 3 to 4096, rows 1 to 4096.
         #[arg(long, default_value = "39x10")]
         grid_sizes: String,
         /// Scene files whose limb to fit for (repeatable): prints the `[model.springs]` table
@@ -272,7 +272,7 @@ enum BenchCommand {
         #[arg(long)]
         scene: Option<PathBuf>,
         /// Seconds per timed batch (9 interleaved batches per configuration, the fastest
-        /// reported).
+        /// reported), 0.001 to 600.
         #[arg(long, default_value_t = 0.2)]
         batch_seconds: f64,
     },
@@ -402,10 +402,28 @@ enum BenchCommand {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
-        /// Seconds per timed batch (5 batches, median reported).
+        /// Seconds per timed batch (5 batches, median reported), 0.001 to 600.
         #[arg(long, default_value_t = 0.4)]
         batch_seconds: f64,
     },
+}
+
+/// Shortest timed batch `--batch-seconds` accepts, s.
+const MIN_BATCH_S: f64 = 0.001;
+/// Longest timed batch `--batch-seconds` accepts, s (ten minutes).
+const MAX_BATCH_S: f64 = 600.0;
+
+/// `--batch-seconds` as a duration, or a usage error naming the option, the value and the
+/// range (0.001 to 600 s); NaN, infinities and values outside are refused, never clamped.
+fn batch_seconds_option(seconds: f64) -> Result<Duration, String> {
+    if (MIN_BATCH_S..=MAX_BATCH_S).contains(&seconds) {
+        Ok(Duration::from_secs_f64(seconds))
+    } else {
+        Err(format!(
+            "--batch-seconds {}: must be from {MIN_BATCH_S} to {MAX_BATCH_S} s",
+            lamina_rt::format_value(seconds)
+        ))
+    }
 }
 
 fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
@@ -431,8 +449,8 @@ fn run(command: Command) -> Result<(), String> {
         } => {
             let grids_given = std::env::args().any(|a| a.starts_with("--grid-sizes") || a.starts_with("--model-grid"));
             let (grids, model_grid) = if scene.is_empty() || grids_given {
-                let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
-                (grids, Some(generate::parse_grid(&model_grid)?))
+                let grids = generate::parse_grids("--grid-sizes", &grid_sizes)?;
+                (grids, Some(generate::parse_grid("--model-grid", &model_grid)?))
             } else {
                 (Vec::new(), None)
             };
@@ -458,7 +476,7 @@ fn run(command: Command) -> Result<(), String> {
             } else if let Some(scene) = scene {
                 generate::anatomy(&scene, &out, vtu.as_deref())
             } else {
-                generate::cylinder(generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
+                generate::cylinder(generate::parse_grid("--cylinder", &cylinder)?, length, &out, vtu.as_deref())
             }
         }
         Command::Study { what: StudyCommand::Accuracy { scene, out, quick, seconds } } => {
@@ -471,7 +489,7 @@ fn run(command: Command) -> Result<(), String> {
         }
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = run::load_scene(&scene)?;
-            bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
+            bench_effects::bench(&scene, batch_seconds_option(batch_seconds)?)
         }
         Command::Bench {
             what:
@@ -492,7 +510,7 @@ fn run(command: Command) -> Result<(), String> {
                 grids: if grids.trim().is_empty() {
                     Vec::new()
                 } else {
-                    parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?
+                    generate::parse_grids("--grids", &grids)?.into_iter().map(|g| (g.columns, g.rows)).collect()
                 },
                 scenes: scenes.split(',').filter(|p| !p.trim().is_empty()).map(|p| PathBuf::from(p.trim())).collect(),
                 integrators: parse_list(&solvers, "solver", IntegratorKind::parse)?,
@@ -605,7 +623,7 @@ fn run(command: Command) -> Result<(), String> {
                 c: !no_c,
                 streamed: streamed_params,
                 json,
-                batch: Duration::from_secs_f64(batch_seconds.max(0.01)),
+                batch: batch_seconds_option(batch_seconds)?,
             };
             yardstick_cmd::bench(&opts)
         }
