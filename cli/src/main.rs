@@ -99,7 +99,7 @@ enum Command {
         /// Print our mass and spring counts beside the paper's Table 3.
         #[arg(long)]
         table3: bool,
-        /// Grid of the synthetic cylindrical limb, WxH.
+        /// Grid of the synthetic cylindrical limb, WxH: columns 3 to 4096, rows 1 to 4096.
         #[arg(long, default_value = "39x10")]
         cylinder: String,
         /// Limb length, m.
@@ -144,10 +144,10 @@ enum Command {
         /// Scene for the core run; the built-in default when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
-        /// Seconds per measurement.
+        /// Seconds per measurement, above 0 and at most 3600.
         #[arg(long, default_value_t = 5.0)]
         seconds: f64,
-        /// Node counts for the synthetic publisher, comma-separated.
+        /// Node counts for the synthetic publisher, comma-separated, each 1 to 1,000,000.
         #[arg(long, default_value = "2769,100000")]
         nodes: String,
         /// Output folder.
@@ -280,8 +280,9 @@ enum BenchCommand {
     /// other scenes, every solver on 1 and 2 threads side by side (and multirate stepping about
     /// the tool on 2, its ticks paced at 1 kHz); a table, CSV and log-log PNG.
     Capacity {
-        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells); "" for
-        /// scenes alone.
+        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells; columns
+        /// 3 to 4096, rows 1 to 4096); "" for scenes alone. A grid or scene that cannot be
+        /// built refuses the run before anything is timed.
         #[arg(long, default_value = "24x6,39x10,48x12,96x24,160x40")]
         grids: String,
         /// Comma-separated scene files measured as well (their own model and effects).

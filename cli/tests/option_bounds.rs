@@ -115,3 +115,31 @@ fn fit_targets_whose_curve_overflows_are_refused_naming_file_and_field_fail() {
     assert_refused(&out, &["muscle.toml: curve: the curve's stress at max_strain is inf Pa, beyond 1e12 Pa"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bench_capacity_on_a_grid_it_cannot_build_measures_nothing_and_fails() {
+    let dir = std::env::temp_dir().join(format!("lamina_capacity_unbuilt_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    // 64 MB of memory: the 24x6 limb fits, the 1000x400 one (about 2.8 million nodes) does not.
+    let out = Command::new(env!("CARGO_BIN_EXE_lamina"))
+        .env("LAMINA_MEMORY_LIMIT", "64000000")
+        .args(["bench", "capacity", "--grids", "24x6,1000x400", "--scenes", "", "--fifo-priority", "0", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_refused(&out, &["nothing measured: 1 model(s) could not be built: grid 1000x400: "]);
+    assert!(!dir.exists(), "no CSV or plot written");
+    let missing = dir.join("missing.toml");
+    let out = lamina(&[
+        "bench",
+        "capacity",
+        "--grids",
+        "",
+        "--scenes",
+        missing.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_refused(&out, &["could not be built: scene ", "missing.toml"]);
+    assert!(!dir.exists(), "no CSV or plot written");
+}
