@@ -522,12 +522,18 @@ fn run(command: Command) -> Result<(), String> {
                 max_seconds: if max_seconds.is_finite() && (0.1..=3600.0).contains(&max_seconds) {
                     max_seconds
                 } else {
-                    return Err(format!("--max-seconds {max_seconds}: between 0.1 and 3600"));
+                    return Err(format!(
+                        "--max-seconds {}: between 0.1 and 3600",
+                        lamina_rt::format_value(max_seconds)
+                    ));
                 },
                 region_radius_m: if region_radius.is_finite() && region_radius > 0.0 {
                     region_radius
                 } else {
-                    return Err(format!("--region-radius {region_radius}: a length in m greater than 0"));
+                    return Err(format!(
+                        "--region-radius {}: a length in m greater than 0",
+                        lamina_rt::format_value(region_radius)
+                    ));
                 },
                 ratio: if (2..=MAX_MULTIRATE_RATIO).contains(&ratio) {
                     ratio

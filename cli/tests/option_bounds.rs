@@ -143,3 +143,25 @@ fn bench_capacity_on_a_grid_it_cannot_build_measures_nothing_and_fails() {
     assert_refused(&out, &["could not be built: scene ", "missing.toml"]);
     assert!(!dir.exists(), "no CSV or plot written");
 }
+
+#[test]
+fn refused_values_are_echoed_in_scientific_notation_fail() {
+    let cases: [(&[&str], &str); 6] = [
+        (&["bench", "noise", "--work-us", "1e300"], "--work-us 1e300: at least 0 and less than the period"),
+        (
+            &["bench", "noise", "--seconds", "1e300"],
+            "--seconds 1e300: must be a number of seconds above 0 and at most 3600",
+        ),
+        (&["bench", "stalls", "--work-us", "1e300"], "--work-us 1e300: at least 0 and less than the period"),
+        (&["bench", "stalls", "--seconds=-1e300"], "--seconds -1e300: must be a number of seconds above 0"),
+        (&["bench", "capacity", "--max-seconds", "1e300"], "--max-seconds 1e300: between 0.1 and 3600"),
+        (&["bench", "capacity", "--region-radius=-1e-300"], "--region-radius -1e-300: a length in m greater than 0"),
+    ];
+    for (args, expected) in cases {
+        let out = lamina(args);
+        assert_refused(&out, &[expected]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        // No value printed digit by digit: 1e300 in full is 301 digits.
+        assert!(err.split(|c: char| !c.is_ascii_digit()).all(|run| run.len() <= 12), "{args:?}: {err}");
+    }
+}
