@@ -92,8 +92,12 @@ struct Timed {
     cg_iterations: u64,
 }
 
-fn build_models(opts: &CapacityOptions) -> Vec<(Scene, Result<Model, String>)> {
+/// Builds every model measured: each grid's limb, then each scene's. Any that cannot be built
+/// (a scene that does not load, a grid over the memory budget) refuses the whole benchmark
+/// before anything is timed, naming each such grid or scene and why.
+fn build_models(opts: &CapacityOptions) -> Result<Vec<(Scene, Model)>, String> {
     let mut out = Vec::new();
+    let mut failed = Vec::new();
     for &(columns, rows) in &opts.grids {
         let mut scene = Scene::builtin_default();
         // The default limb's length and springs on every grid.
@@ -103,19 +107,27 @@ fn build_models(opts: &CapacityOptions) -> Vec<(Scene, Result<Model, String>)> {
         };
         scene.model = ModelSource::CylinderLimb { columns, rows, length, springs };
         scene.name = format!("{LIMB} {columns}x{rows}");
-        let model = scene.build_model().map_err(|e| e.to_string());
-        out.push((scene, model));
-    }
-    for path in &opts.scenes {
-        match Scene::load(path) {
-            Ok(scene) => {
-                let model = scene.build_model().map_err(|e| e.to_string());
-                out.push((scene, model));
-            }
-            Err(e) => println!("skipped {}: {e}", path.display()),
+        match scene.build_model() {
+            Ok(model) => out.push((scene, model)),
+            Err(e) => failed.push(format!("grid {columns}x{rows}: {e}")),
         }
     }
-    out
+    for path in &opts.scenes {
+        match Scene::load(path).map_err(|e| e.to_string()).and_then(|s| {
+            let model = s.build_model().map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok((s, model))
+        }) {
+            Ok(pair) => out.push(pair),
+            Err(e) => failed.push(format!("scene {e}")),
+        }
+    }
+    if !failed.is_empty() {
+        return Err(format!("nothing measured: {} model(s) could not be built: {}", failed.len(), failed.join("; ")));
+    }
+    if out.is_empty() {
+        return Err("nothing to measure: --grids and --scenes are both empty".into());
+    }
+    Ok(out)
 }
 
 /// Builds every configuration of one model.
@@ -263,6 +275,7 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
             Err(e) => println!("SCHED_FIFO not set ({e}); timings include preemption by other processes"),
         }
     }
+    let models = build_models(opts)?;
     std::fs::create_dir_all(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
     println!(
         "capacity benchmark: compute per 1 kHz tick (budget {BUDGET_US:.0} us), f32, tool pressed {:.0} mm where the scene has one",
@@ -278,19 +291,10 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
         "model", "nodes", "springs", "solver", "thr", "steps/tick", "p50 us", "p99 us", "max us", "ticks", "vs expl."
     );
     let mut rows: Vec<Row> = Vec::new();
-    let models = build_models(opts);
     // Moves between models, never while one is timed.
     let bar = super::progress::steps(models.len() as u64, "bench capacity");
     for (scene, model) in models {
         bar.set_message(scene.name.clone());
-        let model = match model {
-            Ok(m) => m,
-            Err(e) => {
-                bar.suspend(|| println!("{}: model not built: {e}", scene.name));
-                bar.inc(1);
-                continue;
-            }
-        };
         let mut list = configurations(&scene, &model, opts);
         measure(&mut list, opts);
         bar.inc(1);
@@ -335,6 +339,11 @@ pub fn bench(opts: &CapacityOptions) -> Result<(), String> {
             .max_by_key(|r| r.nodes);
         let text = best.map(|r| format!("{} ({} nodes, p99 {:.0} us)", r.model, r.nodes, r.quantile_us(0.99)));
         println!("  {solver:<18} {threads} thread(s): {}", text.as_deref().unwrap_or("none"));
+    }
+    if rows.iter().all(|r| r.error.is_some()) {
+        return Err(
+            "nothing measured: no configuration of any model could be built (the errors are in the table)".into()
+        );
     }
     write_csv(&opts.out.join("capacity.csv"), &rows)?;
     write_plot(&opts.out.join("capacity.png"), &rows)?;

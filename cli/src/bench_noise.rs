@@ -143,12 +143,13 @@ pub fn slow_bursts(compute_ns: impl IntoIterator<Item = u64>, slow_ns: u64) -> S
 
 /// Runs the loop once per sleep slice and prints the table.
 pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
-    if !(opts.seconds.is_finite() && opts.seconds > 0.0 && opts.seconds <= 3600.0) {
-        return Err(format!("--seconds {}: between 0 and 3600", opts.seconds));
-    }
+    lamina_rt::seconds_option("--seconds", opts.seconds, 3600.0).map_err(|e| e.to_string())?;
     let period_us = 1e6 / f64::from(opts.rate_hz.max(1));
     if !(opts.work_us.is_finite() && opts.work_us >= 0.0 && opts.work_us < period_us) {
-        return Err(format!("--work-us {}: at least 0 and less than the period, {period_us:.1} µs", opts.work_us));
+        return Err(format!(
+            "--work-us {}: at least 0 and less than the period, {period_us:.1} µs",
+            lamina_rt::format_value(opts.work_us)
+        ));
     }
     if !(1..=1 << 20).contains(&opts.working_set_kib) {
         return Err(format!("--working-set-kib {}: 1 to 1048576 (1 GiB)", opts.working_set_kib));
@@ -168,6 +169,8 @@ pub fn bench(opts: &NoiseOptions) -> Result<(), String> {
             opts.seconds, opts.rate_hz
         ));
     }
+    super::run::check_cpu("--cpu", opts.cpu)?;
+    super::run::check_cpu("--standby-cpu", opts.standby.map(|s| s.cpu))?;
     let cpu = super::run::cpu_or_last(opts.cpu);
     let mut request = RealtimeRequest::new().lock_memory();
     request.cpu = cpu;

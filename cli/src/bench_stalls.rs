@@ -53,9 +53,7 @@ struct CpuWatch {
 
 /// Watches every available CPU and prints the table.
 pub fn bench(opts: &StallOptions) -> Result<(), String> {
-    if !(opts.seconds.is_finite() && opts.seconds > 0.0 && opts.seconds <= 3600.0) {
-        return Err(format!("--seconds {}: between 0 and 3600", opts.seconds));
-    }
+    lamina_rt::seconds_option("--seconds", opts.seconds, 3600.0).map_err(|e| e.to_string())?;
     if !(5..=100_000).contains(&opts.gap_us) {
         return Err(format!("--gap-us {}: 5 to 100000", opts.gap_us));
     }
@@ -69,7 +67,7 @@ pub fn bench(opts: &StallOptions) -> Result<(), String> {
     if !(opts.work_us.is_finite() && opts.work_us >= 0.0 && opts.work_us * 1e3 < period_ns as f64) {
         return Err(format!(
             "--work-us {}: at least 0 and less than the period, {:.1} µs",
-            opts.work_us,
+            lamina_rt::format_value(opts.work_us),
             period_ns as f64 / 1e3
         ));
     }

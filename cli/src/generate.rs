@@ -17,11 +17,33 @@ pub fn table3() -> Result<(), String> {
     Ok(())
 }
 
-/// Parses `WxH`.
-pub fn parse_grid(text: &str) -> Result<GridSize, String> {
-    let (w, h) = text.split_once('x').ok_or_else(|| format!("grid '{text}': expected WxH, e.g. 39x10"))?;
-    let parse = |v: &str| v.parse::<u32>().map_err(|_| format!("grid '{text}': '{v}' is not a whole number"));
-    Ok(GridSize::new(parse(w)?, parse(h)?))
+/// Columns a limb grid may have (around the limb), as a scene's `[model]` table.
+pub const GRID_COLUMNS: std::ops::RangeInclusive<u32> = 3..=4096;
+/// Rows a limb grid may have (through the thickness), as a scene's `[model]` table.
+pub const GRID_ROWS: std::ops::RangeInclusive<u32> = 1..=4096;
+
+/// Parses `WxH` given as command-line option `option`: columns 3 to 4096 and rows 1 to 4096
+/// (the bounds of a scene's `[model]` table), else an error naming the option, the value and
+/// the bounds.
+pub fn parse_grid(option: &str, text: &str) -> Result<GridSize, String> {
+    let (w, h) = text.split_once('x').ok_or_else(|| format!("{option} '{text}': expected WxH, e.g. 39x10"))?;
+    let parse = |v: &str| v.parse::<u32>().map_err(|_| format!("{option} '{text}': '{v}' is not a whole number"));
+    let (columns, rows) = (parse(w)?, parse(h)?);
+    if !(GRID_COLUMNS.contains(&columns) && GRID_ROWS.contains(&rows)) {
+        return Err(format!(
+            "{option} '{text}': columns must be {} to {} and rows {} to {}",
+            GRID_COLUMNS.start(),
+            GRID_COLUMNS.end(),
+            GRID_ROWS.start(),
+            GRID_ROWS.end()
+        ));
+    }
+    Ok(GridSize::new(columns, rows))
+}
+
+/// Parses a comma-separated list of `WxH` grids given as option `option` ([`parse_grid`]).
+pub fn parse_grids(option: &str, text: &str) -> Result<Vec<GridSize>, String> {
+    text.split(',').map(|g| parse_grid(option, g.trim())).collect()
 }
 
 /// Generates the cylindrical limb and writes it.

@@ -99,7 +99,7 @@ enum Command {
         /// Print our mass and spring counts beside the paper's Table 3.
         #[arg(long)]
         table3: bool,
-        /// Grid of the synthetic cylindrical limb, WxH.
+        /// Grid of the synthetic cylindrical limb, WxH: columns 3 to 4096, rows 1 to 4096.
         #[arg(long, default_value = "39x10")]
         cylinder: String,
         /// Limb length, m.
@@ -144,10 +144,10 @@ enum Command {
         /// Scene for the core run; the built-in default when omitted.
         #[arg(long)]
         scene: Option<PathBuf>,
-        /// Seconds per measurement.
+        /// Seconds per measurement, above 0 and at most 3600.
         #[arg(long, default_value_t = 5.0)]
         seconds: f64,
-        /// Node counts for the synthetic publisher, comma-separated.
+        /// Node counts for the synthetic publisher, comma-separated, each 1 to 1,000,000.
         #[arg(long, default_value = "2769,100000")]
         nodes: String,
         /// Output folder.
@@ -164,7 +164,7 @@ enum Command {
         /// it exists, else the shipped targets built into this binary.
         #[arg(long)]
         materials: Option<PathBuf>,
-        /// Grid sizes of the limb to fit for, comma-separated WxH.
+        /// Grid sizes of the limb to fit for, comma-separated WxH: columns 3 to 4096, rows 1 to 4096.
         #[arg(long, default_value = "39x10")]
         grid_sizes: String,
         /// Scene files whose limb to fit for (repeatable): prints the `[model.springs]` table
@@ -272,7 +272,7 @@ enum BenchCommand {
         #[arg(long)]
         scene: Option<PathBuf>,
         /// Seconds per timed batch (9 interleaved batches per configuration, the fastest
-        /// reported).
+        /// reported), 0.001 to 600.
         #[arg(long, default_value_t = 0.2)]
         batch_seconds: f64,
     },
@@ -280,8 +280,9 @@ enum BenchCommand {
     /// other scenes, every solver on 1 and 2 threads side by side (and multirate stepping about
     /// the tool on 2, its ticks paced at 1 kHz); a table, CSV and log-log PNG.
     Capacity {
-        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells); "" for
-        /// scenes alone.
+        /// Comma-separated cylinder limb grids, columns x rows (same limb, finer cells; columns
+        /// 3 to 4096, rows 1 to 4096); "" for scenes alone. A grid or scene that cannot be
+        /// built refuses the run before anything is timed.
         #[arg(long, default_value = "24x6,39x10,48x12,96x24,160x40")]
         grids: String,
         /// Comma-separated scene files measured as well (their own model and effects).
@@ -402,10 +403,28 @@ enum BenchCommand {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
-        /// Seconds per timed batch (5 batches, median reported).
+        /// Seconds per timed batch (5 batches, median reported), 0.001 to 600.
         #[arg(long, default_value_t = 0.4)]
         batch_seconds: f64,
     },
+}
+
+/// Shortest timed batch `--batch-seconds` accepts, s.
+const MIN_BATCH_S: f64 = 0.001;
+/// Longest timed batch `--batch-seconds` accepts, s (ten minutes).
+const MAX_BATCH_S: f64 = 600.0;
+
+/// `--batch-seconds` as a duration, or a usage error naming the option, the value and the
+/// range (0.001 to 600 s); NaN, infinities and values outside are refused, never clamped.
+fn batch_seconds_option(seconds: f64) -> Result<Duration, String> {
+    if (MIN_BATCH_S..=MAX_BATCH_S).contains(&seconds) {
+        Ok(Duration::from_secs_f64(seconds))
+    } else {
+        Err(format!(
+            "--batch-seconds {}: must be from {MIN_BATCH_S} to {MAX_BATCH_S} s",
+            lamina_rt::format_value(seconds)
+        ))
+    }
 }
 
 fn parse_list<T>(s: &str, what: &str, f: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
@@ -431,8 +450,8 @@ fn run(command: Command) -> Result<(), String> {
         } => {
             let grids_given = std::env::args().any(|a| a.starts_with("--grid-sizes") || a.starts_with("--model-grid"));
             let (grids, model_grid) = if scene.is_empty() || grids_given {
-                let grids = parse_list(&grid_sizes, "grid size", |g| generate::parse_grid(g).ok())?;
-                (grids, Some(generate::parse_grid(&model_grid)?))
+                let grids = generate::parse_grids("--grid-sizes", &grid_sizes)?;
+                (grids, Some(generate::parse_grid("--model-grid", &model_grid)?))
             } else {
                 (Vec::new(), None)
             };
@@ -458,7 +477,7 @@ fn run(command: Command) -> Result<(), String> {
             } else if let Some(scene) = scene {
                 generate::anatomy(&scene, &out, vtu.as_deref())
             } else {
-                generate::cylinder(generate::parse_grid(&cylinder)?, length, &out, vtu.as_deref())
+                generate::cylinder(generate::parse_grid("--cylinder", &cylinder)?, length, &out, vtu.as_deref())
             }
         }
         Command::Study { what: StudyCommand::Accuracy { scene, out, quick, seconds } } => {
@@ -471,7 +490,7 @@ fn run(command: Command) -> Result<(), String> {
         }
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = run::load_scene(&scene)?;
-            bench_effects::bench(&scene, Duration::from_secs_f64(batch_seconds.max(0.01)))
+            bench_effects::bench(&scene, batch_seconds_option(batch_seconds)?)
         }
         Command::Bench {
             what:
@@ -492,7 +511,7 @@ fn run(command: Command) -> Result<(), String> {
                 grids: if grids.trim().is_empty() {
                     Vec::new()
                 } else {
-                    parse_list(&grids, "grid", |g| generate::parse_grid(g).ok().map(|g| (g.columns, g.rows)))?
+                    generate::parse_grids("--grids", &grids)?.into_iter().map(|g| (g.columns, g.rows)).collect()
                 },
                 scenes: scenes.split(',').filter(|p| !p.trim().is_empty()).map(|p| PathBuf::from(p.trim())).collect(),
                 integrators: parse_list(&solvers, "solver", IntegratorKind::parse)?,
@@ -503,12 +522,18 @@ fn run(command: Command) -> Result<(), String> {
                 max_seconds: if max_seconds.is_finite() && (0.1..=3600.0).contains(&max_seconds) {
                     max_seconds
                 } else {
-                    return Err(format!("--max-seconds {max_seconds}: between 0.1 and 3600"));
+                    return Err(format!(
+                        "--max-seconds {}: between 0.1 and 3600",
+                        lamina_rt::format_value(max_seconds)
+                    ));
                 },
                 region_radius_m: if region_radius.is_finite() && region_radius > 0.0 {
                     region_radius
                 } else {
-                    return Err(format!("--region-radius {region_radius}: a length in m greater than 0"));
+                    return Err(format!(
+                        "--region-radius {}: a length in m greater than 0",
+                        lamina_rt::format_value(region_radius)
+                    ));
                 },
                 ratio: if (2..=MAX_MULTIRATE_RATIO).contains(&ratio) {
                     ratio
@@ -605,7 +630,7 @@ fn run(command: Command) -> Result<(), String> {
                 c: !no_c,
                 streamed: streamed_params,
                 json,
-                batch: Duration::from_secs_f64(batch_seconds.max(0.01)),
+                batch: batch_seconds_option(batch_seconds)?,
             };
             yardstick_cmd::bench(&opts)
         }

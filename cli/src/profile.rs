@@ -28,9 +28,41 @@ fn json(path: &Path) -> Result<serde_json::Value, String> {
     serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-fn wait(mut child: Child, what: &str) -> Result<(), String> {
-    let status = child.wait().map_err(|e| format!("{what}: {e}"))?;
-    if status.success() { Ok(()) } else { Err(format!("{what} exited with {status}")) }
+/// Longest measurement `--seconds` accepts, s (one hour).
+pub const MAX_SECONDS: f64 = 3600.0;
+/// Node counts `--nodes` accepts, as `lamina-publish-probe --nodes`.
+pub const NODES: std::ops::RangeInclusive<u64> = 1..=1_000_000;
+
+/// A child process that is killed and reaped when dropped before [`Guarded::wait`]: when a
+/// step of the profile fails, no listener, core or probe is left running.
+struct Guarded {
+    child: Option<Child>,
+    what: &'static str,
+}
+
+impl Guarded {
+    /// Spawns `cmd`, the program named `what` in errors.
+    fn spawn(cmd: &mut Command, what: &'static str) -> Result<Self, String> {
+        let child = cmd.spawn().map_err(|e| format!("{what}: {e}"))?;
+        Ok(Self { child: Some(child), what })
+    }
+
+    /// Waits for the process to end; an error unless it exited with status 0.
+    fn wait(mut self) -> Result<(), String> {
+        let Some(mut child) = self.child.take() else { return Ok(()) };
+        let status = child.wait().map_err(|e| format!("{}: {e}", self.what))?;
+        if status.success() { Ok(()) } else { Err(format!("{} exited with {status}", self.what)) }
+    }
+}
+
+impl Drop for Guarded {
+    fn drop(&mut self) {
+        if let Some(mut child) = self.child.take() {
+            // The process may have ended already: both calls are then harmless.
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
 }
 
 /// One measured configuration.
@@ -50,30 +82,37 @@ fn listeners(
     out: &Path,
     tag: &str,
     mode: &'static str,
-) -> Result<Vec<(Child, &'static str, PathBuf, PathBuf)>, String> {
+) -> Result<Vec<(Guarded, &'static str, PathBuf, PathBuf)>, String> {
     let listen = sibling("lamina-listen")?;
     let mut v = Vec::new();
     {
         let cpu = "0";
         let json = out.join(format!("{tag}_{mode}.json"));
         let hist = out.join(format!("{tag}_{mode}_histogram.csv"));
-        let child = Command::new(&listen)
-            .args(["--prefix", prefix, "--mode", mode, "--pin", cpu, "--seconds", &format!("{}", seconds + 1.5)])
-            .arg("--out")
-            .arg(&json)
-            .arg("--histogram")
-            .arg(&hist)
-            .stdout(Stdio::null())
-            .spawn()
-            .map_err(|e| format!("lamina-listen: {e}"))?;
+        let child = Guarded::spawn(
+            Command::new(&listen)
+                .args(["--prefix", prefix, "--mode", mode, "--pin", cpu, "--seconds", &format!("{}", seconds + 1.5)])
+                .arg("--out")
+                .arg(&json)
+                .arg("--histogram")
+                .arg(&hist)
+                .stdout(Stdio::null()),
+            "lamina-listen",
+        )?;
         v.push((child, mode, json, hist));
     }
     std::thread::sleep(Duration::from_millis(400));
     Ok(v)
 }
 
-/// Runs the profile and prints the table.
+/// Runs the profile and prints the table: `seconds` per measurement (above 0 and at most
+/// [`MAX_SECONDS`]), the probe at each of `sizes` nodes (each in [`NODES`]); both are checked
+/// before any process starts.
 pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) -> Result<(), String> {
+    lamina_rt::seconds_option("--seconds", seconds, MAX_SECONDS).map_err(|e| e.to_string())?;
+    if let Some(n) = sizes.iter().find(|n| !NODES.contains(n)) {
+        return Err(format!("--nodes {n}: must be from {} to {}", NODES.start(), NODES.end()));
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let pid = std::process::id();
     let mut rows: Vec<Row> = Vec::new();
@@ -90,14 +129,13 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
         if let Some(s) = scene {
             cmd.arg("--scene").arg(s);
         }
-        let core = cmd.stdout(Stdio::null()).spawn().map_err(|e| format!("lamina run: {e}"))?;
-        wait(core, "lamina run")?;
+        Guarded::spawn(cmd.stdout(Stdio::null()), "lamina run")?.wait()?;
         let nodes = {
             let scene = super::run::load_scene(&scene.map(Path::to_path_buf))?;
             scene.build_model().map_err(|e| e.to_string())?.nodes.len() as u64
         };
         for (child, mode, json_path, hist) in subs {
-            wait(child, "lamina-listen")?;
+            child.wait()?;
             rows.push(Row { source: "core".into(), nodes, mode, report: json(&json_path)?, histogram: hist });
         }
         if mode == "block" {
@@ -119,8 +157,8 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
         bar.set_message(format!("probe, {n} nodes, {mode} subscriber ({seconds} s)"));
         let prefix = format!("profile_probe_{n}_{mode}_{pid}");
         let subs = listeners(&prefix, seconds, out, &format!("probe_{n}"), mode)?;
-        let child = Command::new(&probe)
-            .args([
+        let child = Guarded::spawn(
+            Command::new(&probe).stdout(Stdio::null()).args([
                 "--nodes",
                 &n.to_string(),
                 "--rate",
@@ -131,13 +169,12 @@ pub fn profile(scene: Option<&Path>, seconds: f64, sizes: &[u64], out: &Path) ->
                 &prefix,
                 "--pin",
                 "1",
-            ])
-            .stdout(Stdio::null())
-            .spawn()
-            .map_err(|e| format!("lamina-publish-probe: {e}"))?;
-        wait(child, "lamina-publish-probe")?;
+            ]),
+            "lamina-publish-probe",
+        )?;
+        child.wait()?;
         for (child, mode, json_path, hist) in subs {
-            wait(child, "lamina-listen")?;
+            child.wait()?;
             rows.push(Row { source: "probe".into(), nodes: n, mode, report: json(&json_path)?, histogram: hist });
         }
         bar.inc(1);
@@ -237,7 +274,7 @@ fn profile_haptics(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<ser
     if let Some(s) = scene {
         cmd.arg("--scene").arg(s);
     }
-    let core = cmd.stdout(Stdio::null()).spawn().map_err(|e| format!("lamina run: {e}"))?;
+    let core = Guarded::spawn(cmd.stdout(Stdio::null()), "lamina run")?;
     std::thread::sleep(Duration::from_millis(600));
     let trajectory = out.join("haptics_trajectory.csv");
     std::fs::write(&trajectory, super::demo::DEMO_TRAJECTORY).map_err(|e| format!("{}: {e}", trajectory.display()))?;
@@ -246,18 +283,15 @@ fn profile_haptics(scene: Option<&Path>, seconds: f64, out: &Path) -> Result<ser
     if let Some(s) = scene {
         h.arg("--scene").arg(s);
     }
-    let h = h
-        .args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
+    h.args(["--prefix", &prefix, "--cpu", "0", "--rate-hz", "4000", "--quiet", "--seconds", &seconds.to_string()])
         .arg("--device")
         .arg(format!("scripted:{}", trajectory.display()))
         .arg("--report")
         .arg(&report)
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .map_err(|e| format!("lamina-haptics: {e}"))?;
-    wait(h, "lamina-haptics")?;
-    wait(core, "lamina run")?;
+        .stderr(Stdio::null());
+    Guarded::spawn(&mut h, "lamina-haptics")?.wait()?;
+    core.wait()?;
     json(&report)
 }
 
@@ -285,4 +319,30 @@ fn plot(path: &Path, rows: &[Row]) -> Result<(), String> {
         &series,
         false,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Guarded;
+    use std::process::Command;
+
+    #[test]
+    fn a_dropped_child_is_killed_and_reaped_works() {
+        let guarded = Guarded::spawn(Command::new("sleep").arg("1000"), "sleep").unwrap();
+        let pid = guarded.child.as_ref().map(std::process::Child::id).unwrap() as libc::pid_t;
+        // SAFETY: kill(2) with signal 0 only checks that the process exists.
+        assert_eq!(unsafe { libc::kill(pid, 0) }, 0, "the child runs");
+        drop(guarded);
+        // Killed and reaped: the pid names no process any more (ESRCH), not even a zombie.
+        // SAFETY: as above.
+        assert_eq!(unsafe { libc::kill(pid, 0) }, -1);
+        assert_eq!(std::io::Error::last_os_error().raw_os_error(), Some(libc::ESRCH));
+    }
+
+    #[test]
+    fn a_waited_child_reports_its_exit_status_fail() {
+        assert_eq!(Guarded::spawn(&mut Command::new("true"), "true").unwrap().wait(), Ok(()));
+        let e = Guarded::spawn(&mut Command::new("false"), "false").unwrap().wait().unwrap_err();
+        assert!(e.starts_with("false exited with") && e.contains('1'), "{e}");
+    }
 }

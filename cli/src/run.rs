@@ -79,6 +79,9 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
     check_options(opts)?;
     let scene = &loaded.scene;
     let scene_name = || scene.path.as_ref().map_or("<built-in default scene>".into(), |p| p.display().to_string());
+    for (field, cpu) in [("realtime.cpu", scene.realtime.cpu), ("realtime.standby_cpu", scene.realtime.standby_cpu)] {
+        check_cpu(field, cpu).map_err(|e| format!("{}: {e}", scene_name()))?;
+    }
     if let Some(cpu) = scene.realtime.standby_cpu.filter(|&c| Some(c) == loop_cpu(scene)) {
         return Err(format!(
             "{}: realtime.standby_cpu = {cpu} is the loop's CPU (realtime.cpu, by default the last CPU): give the standby another",
@@ -527,6 +530,20 @@ fn machine_misses_hint(summary: &lamina_rt::MonitorSummary, standby_cpu: Option<
 /// The CPU the loop is pinned to: the scene's, else the last one available.
 fn loop_cpu(scene: &Scene) -> Option<usize> {
     cpu_or_last(scene.realtime.cpu)
+}
+
+/// Refuses a CPU index given as `field` (an option or a scene field) that is not one of the
+/// CPUs this process may run on: the error names the field, the value and those CPUs. `None`
+/// (the default CPU) passes.
+pub(super) fn check_cpu(field: &str, cpu: Option<usize>) -> Result<(), String> {
+    let available = available_cpus();
+    match cpu {
+        Some(cpu) if !available.contains(&cpu) => {
+            Err(lamina_rt::CpuOptionError { option: field.to_owned(), cpu, reason: "no such CPU", available }
+                .to_string())
+        }
+        _ => Ok(()),
+    }
 }
 
 /// `cpu`, else the last CPU the process may use: where `lamina run` pins its loop.

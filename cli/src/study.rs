@@ -122,7 +122,7 @@ fn plot(path: &Path, title: &str, rows: &[AccuracyRow]) -> Result<(), String> {
 /// `lamina study accuracy`.
 pub fn accuracy(scene: &Scene, out: &Path, quick: bool, t_end: f64) -> Result<(), String> {
     if !(t_end.is_finite() && (0.002..=10.0).contains(&t_end)) {
-        return Err(format!("--seconds {t_end}: the model case runs 0.002 to 10 s"));
+        return Err(format!("--seconds {}: the model case runs 0.002 to 10 s", lamina_rt::format_value(t_end)));
     }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let model = scene.build_model().map_err(|e| e.to_string())?;

@@ -195,3 +195,31 @@ fn targets_files_have_sources_and_malformed_ones_fail() {
         }
     }
 }
+
+#[test]
+fn targets_whose_curve_overflows_over_the_tested_strains_fail() {
+    let muscle = std::fs::read_to_string(materials_dir().join("muscle.toml")).unwrap();
+    assert!(muscle.contains("alpha = 20.0") && muscle.contains("max_strain = 0.15"), "muscle.toml changed");
+    let path = Path::new("muscle_overflow.toml");
+    // sigma(0.15) = (90 kPa / alpha)(exp(0.15 alpha) - 1): alpha 100 gives 2.94e9 Pa (below the
+    // 1e12 Pa bound), alpha 200 gives 4.81e15 Pa and alpha 1e300 overflows to infinity.
+    let with_alpha = |alpha: &str| muscle.replace("alpha = 20.0", &format!("alpha = {alpha}"));
+    let accepted = TissueTargets::parse(&with_alpha("100.0"), path).unwrap();
+    let expected = 90e3 / 100.0 * (15f64.exp() - 1.0);
+    assert!((accepted.curve_stress_at(0.15) / expected - 1.0).abs() < 1e-12);
+    for (alpha, shown) in [("200.0", "4.8"), ("1e300", "inf Pa")] {
+        let e = TissueTargets::parse(&with_alpha(alpha), path).unwrap_err();
+        assert!(matches!(&e, TargetsLoadError::Value { field, .. } if field == "curve"), "{e:?}");
+        let text = e.to_string();
+        assert!(text.starts_with("muscle_overflow.toml: curve: the curve's stress at max_strain is "), "{text}");
+        assert!(text.contains(shown) && text.ends_with("Pa, beyond 1e12 Pa"), "{text}");
+    }
+    // The law's own stress is held to the same bound.
+    let linear =
+        "name = \"x\"\nlaw = \"linear\"\nmodulus_pa = 1e300\nmax_strain = 0.3\n[sources]\nmodulus_pa = \"s\"\n";
+    let e = TissueTargets::parse(linear, path).unwrap_err().to_string();
+    assert!(
+        e.starts_with("muscle_overflow.toml: law: the law's stress at max_strain is 3") && e.contains("e299 Pa"),
+        "{e}"
+    );
+}

@@ -142,3 +142,29 @@ fn io_vtu_series_time_going_backwards_fails() {
     assert_eq!(series.write_frame(f64::NAN, &m.nodes.position), Err(VtuWriteError::BadTime { frame: 1 }));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A recorded frame whose `NumberOfPoints` is 2^64 - 1 while its array holds one point: refused
+/// naming the file, the count as written and its size unwrapped.
+#[test]
+fn io_vtu_recorded_point_count_beyond_its_array_fails() {
+    let dir = scratch("huge_count");
+    // The array: an 8-byte length (12) and one point of three zero Float32 values, in base64.
+    let frame = |count: &str| {
+        format!(
+            "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"{count}\" NumberOfCells=\"0\">\
+             <Points><DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"binary\">DAAAAAAAAAAAAAAAAAAAAAAAAAA=\
+             </DataArray></Points></Piece></UnstructuredGrid></VTKFile>\n"
+        )
+    };
+    let path = dir.join("frame_000000.vtu");
+    std::fs::write(&path, frame("1")).unwrap();
+    assert_eq!(lamina_core::io::read_recorded_points(&path).unwrap(), vec![[0.0f32; 3]]);
+    std::fs::write(&path, frame("18446744073709551615")).unwrap();
+    let e = lamina_core::io::read_recorded_points(&path).unwrap_err().to_string();
+    assert!(e.contains("frame_000000.vtu"), "{e}");
+    assert!(e.ends_with("points: 12 bytes for 18446744073709551615 points (expected more than 2^64)"), "{e}");
+    std::fs::write(&path, frame("2")).unwrap();
+    let e = lamina_core::io::read_recorded_points(&path).unwrap_err().to_string();
+    assert!(e.ends_with("points: 12 bytes for 2 points (expected 24)"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

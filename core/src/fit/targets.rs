@@ -24,6 +24,12 @@ pub enum TargetLaw {
     },
 }
 
+/// Largest stress a targets file's law or curve may reach over the tested strains (up to
+/// `max_strain`), Pa: 1e12 Pa, a thousand times the strength of steel, far beyond any tissue.
+/// A curve beyond it (an exponent of 1e300 overflows to infinity) could not be fitted, measured
+/// or plotted.
+pub const MAX_TARGET_STRESS_PA: f64 = 1e12;
+
 /// The tissue's stress-strain curve the targets stand for: what the fitted layer's error is
 /// measured against, point by point (`[curve]` of a targets file).
 #[derive(Clone, Debug, PartialEq)]
@@ -222,7 +228,7 @@ impl TissueTargets {
             return Err(value_err("turn_strain", "must be below max_strain (the test must reach the second phase)"));
         }
         let targets = Self {
-            name: raw.name,
+            name: raw.name.clone(),
             law,
             curve,
             curve_label,
@@ -231,6 +237,16 @@ impl TissueTargets {
             sources: raw.sources,
             path: path.to_path_buf(),
         };
+        for (field, stress) in [("law", targets.stress_at(max_strain)), ("curve", targets.curve_stress_at(max_strain))]
+        {
+            if !(stress.is_finite() && stress <= MAX_TARGET_STRESS_PA) {
+                let what = if field == "curve" { "the curve's" } else { "the law's" };
+                return Err(value_err(
+                    field,
+                    &format!("{what} stress at max_strain is {stress:e} Pa, beyond {MAX_TARGET_STRESS_PA:e} Pa"),
+                ));
+            }
+        }
         let n = targets.values().len();
         let weights = raw.weights.unwrap_or_else(|| vec![1.0; n]);
         if weights.len() != n || weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {

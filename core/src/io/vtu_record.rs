@@ -361,7 +361,9 @@ pub fn read_recorded_points(path: impl AsRef<Path>) -> Result<Vec<[f32; 3]>, Rec
     let data = bytes.get(8..).ok_or_else(|| error("points: shorter than their header"))?;
     let declared = u64::from_le_bytes(bytes[..8].try_into().unwrap_or([0; 8]));
     if declared != data.len() as u64 || data.len() != count.saturating_mul(12) {
-        return Err(error(&format!("points: {} bytes for {count} points (expected {})", data.len(), count * 12)));
+        // The count is the file's: 12 bytes each may pass 2^64, said so rather than wrapped.
+        let expected = count.checked_mul(12).map_or_else(|| "more than 2^64".to_owned(), |b| b.to_string());
+        return Err(error(&format!("points: {} bytes for {count} points (expected {expected})", data.len())));
     }
     let f = |k: usize| f32::from_le_bytes([data[k], data[k + 1], data[k + 2], data[k + 3]]);
     Ok((0..count).map(|i| [f(12 * i), f(12 * i + 4), f(12 * i + 8)]).collect())

@@ -20,7 +20,7 @@ pub use in_vivo::{
 };
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
-pub use realtime_section::{OverrunChoice, RealtimeSettings, STANDBY_DELAY_US};
+pub use realtime_section::{MIN_NODE_FRAME_CUTOFF_US, OverrunChoice, RealtimeSettings, STANDBY_DELAY_US};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::{SceneSprings, fat_material};

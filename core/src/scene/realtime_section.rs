@@ -41,7 +41,8 @@ pub struct RealtimeSettings {
     /// A tick that has used more than this since its scheduled start (wake-up lateness plus
     /// the step so far), µs, does not write the node frame due on it: the frame goes out on
     /// the first later tick within the cutoff, or is shed when the next one falls due first.
-    /// Default: half the budget (500 µs at 1 kHz). The haptic feedback is never held back.
+    /// Default: half the budget (500 µs at 1 kHz); at least [`MIN_NODE_FRAME_CUTOFF_US`]. The
+    /// haptic feedback is never held back.
     pub node_frame_cutoff_us: Option<f64>,
 }
 
@@ -63,6 +64,10 @@ pub const STANDBY_DELAY_US: u32 = 250;
 
 /// Largest [`RealtimeSettings::sleep_slice_us`], µs (one second).
 const MAX_SLEEP_SLICE_US: u32 = 1_000_000;
+
+/// Smallest [`RealtimeSettings::node_frame_cutoff_us`], µs: a tick's wake-up alone takes
+/// longer, so a smaller cutoff (1e-300 rounds to 0 ns) would only ever shed frames.
+pub const MIN_NODE_FRAME_CUTOFF_US: f64 = 1.0;
 
 /// Largest [`RealtimeSettings::node_frame_every`], ticks.
 const MAX_NODE_FRAME_EVERY: u32 = 1_000_000;
@@ -105,8 +110,11 @@ pub(super) fn realtime_settings(r: RawRealtime) -> Result<RealtimeSettings, Fiel
     if !(1..=MAX_NODE_FRAME_EVERY).contains(&node_frame_every) {
         return Err(FieldError::new("realtime.node_frame_every", "1..=1000000 ticks"));
     }
-    if r.node_frame_cutoff_us.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
-        return Err(FieldError::new("realtime.node_frame_cutoff_us", "must be finite and positive"));
+    if let Some(c) = r.node_frame_cutoff_us.filter(|c| !(c.is_finite() && *c >= MIN_NODE_FRAME_CUTOFF_US)) {
+        return Err(FieldError::new(
+            "realtime.node_frame_cutoff_us",
+            format!("{c:e} µs: must be finite and at least {MIN_NODE_FRAME_CUTOFF_US} µs"),
+        ));
     }
     if r.standby_cpu.is_some() && r.standby_cpu == r.cpu {
         return Err(FieldError::new("realtime.standby_cpu", "must differ from realtime.cpu (the loop's)"));
@@ -155,6 +163,8 @@ mod tests {
         assert_eq!((r.cpu, r.standby_cpu, r.fifo_priority, r.lock_memory), (Some(1), Some(0), None, false));
         assert_eq!((r.budget_us, r.overrun, r.sleep_slice_us), (Some(800.0), OverrunChoice::CatchUp, 0));
         assert_eq!((r.node_frame_every, r.node_frame_cutoff_us(1_000.0)), (16, 300.0));
+        let floor = parse("node_frame_cutoff_us = 1.0\n").unwrap();
+        assert_eq!(floor.node_frame_cutoff_us(1_000.0), 1.0, "the floor itself is accepted");
         let budget = parse("budget_us = 800.0\n").unwrap();
         assert_eq!(budget.node_frame_cutoff_us(1_000.0), 400.0, "half the budget");
     }
@@ -174,6 +184,8 @@ mod tests {
             ("node_frame_cutoff_us = -5.0\n", "realtime.node_frame_cutoff_us"),
             ("node_frame_cutoff_us = nan\n", "realtime.node_frame_cutoff_us"),
             ("node_frame_cutoff_us = inf\n", "realtime.node_frame_cutoff_us"),
+            ("node_frame_cutoff_us = 1e-300\n", "realtime.node_frame_cutoff_us"),
+            ("node_frame_cutoff_us = 0.999\n", "realtime.node_frame_cutoff_us"),
         ] {
             assert_eq!(parse(body).expect_err(body).field, field, "{body}");
         }
