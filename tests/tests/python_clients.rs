@@ -6,13 +6,14 @@
 //! service first with the binding's default settings makes `lamina run` stop with an error
 //! naming the setting, the value found and the value Lamina needs.
 //!
-//! Needs `python3` with `pip install -r examples/python/requirements.txt`; without them the
+//! Needs `python3` with `pip install -r examples/python/requirements.txt` (the clients import
+//! this checkout's `python/lamina` through `PYTHONPATH`); without them the
 //! tests print SKIP, unless `LAMINA_REQUIRE_PYTHON_CLIENTS` is set (CI sets it), then they fail.
 
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_core::hand_tool::HandTool;
 use lamina_core::scene::Scene;
-use lamina_tests::{unique_prefix, wait_with_watchdog, workspace_bin};
+use lamina_tests::{python_package_dir, unique_prefix, wait_with_watchdog, workspace_bin};
 use serde_json::Value;
 use std::io::Read;
 use std::path::PathBuf;
@@ -52,7 +53,11 @@ fn python_ready(test: &str) -> bool {
 
 fn python(script: &str, args: &[&str]) -> Command {
     let mut cmd = Command::new("python3");
-    cmd.arg(examples_dir().join(script)).args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
+    cmd.env("PYTHONPATH", python_package_dir())
+        .arg(examples_dir().join(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
     cmd
 }
 
@@ -330,6 +335,7 @@ fn python_client_with_default_settings_first_makes_lamina_run_name_the_setting_w
     // holds it until its stdin closes.
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/create_with_defaults.py");
     let mut holder = Command::new("python3")
+        .env("PYTHONPATH", python_package_dir())
         .arg(&script)
         .args(["--prefix", &prefix, "--services", "nodes"])
         .stdin(Stdio::piped())
