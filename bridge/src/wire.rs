@@ -396,3 +396,99 @@ pub struct StatsSummary {
     /// Tick number of the worst tick seen: the largest lateness + compute time (0 before any).
     pub worst_tick: u64,
 }
+
+/// One field of a wire type as the compiler lays it out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldLayout {
+    /// The field's name in the Rust type.
+    pub name: &'static str,
+    /// Byte offset from the start of the type.
+    pub offset: usize,
+    /// Size in bytes.
+    pub size: usize,
+}
+
+/// The byte layout of one wire type: what a declaration in another language (Python's
+/// `ctypes`, a C header, the wire documentation) must reproduce.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TypeLayout {
+    /// The Rust type's name, e.g. `NodesHeader`.
+    pub name: &'static str,
+    /// The name iceoryx2 registers for it (`#[type_name]`), e.g. `LaminaNodesHeaderV1`.
+    pub type_name: &'static str,
+    /// Size in bytes.
+    pub size: usize,
+    /// Alignment in bytes.
+    pub align: usize,
+    /// Every field, in declaration order.
+    pub fields: Vec<FieldLayout>,
+}
+
+fn field_size<T, F>(_get: fn(&T) -> &F) -> usize {
+    core::mem::size_of::<F>()
+}
+
+macro_rules! type_layout {
+    ($t:ty, [$($f:ident),+ $(,)?]) => {
+        TypeLayout {
+            name: stringify!($t),
+            // SAFETY: `type_name` only returns the string the derive registered.
+            type_name: unsafe { <$t as ZeroCopySend>::type_name() },
+            size: core::mem::size_of::<$t>(),
+            align: core::mem::align_of::<$t>(),
+            fields: vec![$(FieldLayout {
+                name: stringify!($f),
+                offset: core::mem::offset_of!($t, $f),
+                size: field_size(|s: &$t| &s.$f),
+            }),+],
+        }
+    };
+}
+
+/// The layout of every wire struct (the `nodes` element `[f32; 3]` aside), in the order of
+/// this module: sizes and offsets from `size_of`, `align_of` and `offset_of!`.
+pub fn layouts() -> Vec<TypeLayout> {
+    vec![
+        type_layout!(NodesHeader, [sequence, tick, sim_time_s, publish_time_ns, node_count, reserved]),
+        type_layout!(WireLayer, [name, first_node, node_count, tissue, reserved]),
+        type_layout!(WireSurface, [name, tissue, grid_cols, grid_rows, index_count]),
+        type_layout!(
+            WireTool,
+            [
+                source,
+                reserved,
+                radius_m,
+                min_radius_m,
+                stiffness_n_per_m,
+                device_origin_m,
+                device_rotation,
+                position_scale,
+                force_scale
+            ]
+        ),
+        type_layout!(WireVolume, [path, origin_m, window, flags, reserved]),
+        type_layout!(
+            TopologyHeader,
+            [
+                revision,
+                node_count,
+                triangle_count,
+                tex_coord_count,
+                layer_count,
+                surface_count,
+                spring_count,
+                node_layer_count,
+                rest_position_count,
+                model_name,
+                layers,
+                surfaces,
+                tool,
+                volume
+            ]
+        ),
+        type_layout!(ToolCommand, [sequence, time_ns, position, orientation, buttons, reserved, tool_radius_m]),
+        type_layout!(ContactFeedback, [sequence, tick, publish_time_ns, in_contact, reserved, force, stiffness, x_ref]),
+        type_layout!(Percentiles, [p50_ns, p99_ns, p999_ns, max_ns]),
+        type_layout!(StatsSummary, [sequence, publish_time_ns, ticks, misses, lateness, compute, period, worst_tick]),
+    ]
+}

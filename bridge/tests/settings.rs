@@ -1,7 +1,7 @@
 //! A service created first by someone else: Lamina uses it when its settings are at least
 //! Lamina's, and otherwise refuses it naming every setting with the value found and the value
 //! Lamina needs. Also pins the wire types' sizes, which clients in other languages declare
-//! by hand (examples/python/lamina_wire.py).
+//! by hand (python/lamina/wire.py).
 
 use lamina_bridge::services::{NODES_BUFFER_SIZE, PubSubSettings};
 use lamina_bridge::wire::{NodesHeader, TopologyHeader, WireLayer};
@@ -149,13 +149,13 @@ fn wake_event_with_too_few_listeners_is_refused_naming_it_works() {
 
 #[test]
 fn wire_type_sizes_match_the_python_clients_works() {
-    // examples/python/lamina_wire.py declares every type's size in `WIRE_SIZES` and checks its
+    // python/lamina/wire.py declares every type's size in `WIRE_SIZES` and checks its
     // ctypes declarations against them at import; those sizes must be the Rust types'.
     use core::mem::size_of;
     use lamina_bridge::wire::{WireSurface, WireTool, WireVolume};
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/python/lamina_wire.py");
-    let text = std::fs::read_to_string(path).expect("examples/python/lamina_wire.py");
-    let table = text.split_once("WIRE_SIZES = {").expect("WIRE_SIZES in lamina_wire.py").1;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../python/lamina/wire.py");
+    let text = std::fs::read_to_string(path).expect("python/lamina/wire.py");
+    let table = text.split_once("WIRE_SIZES = {").expect("WIRE_SIZES in python/lamina/wire.py").1;
     let table = table.split_once('}').expect("WIRE_SIZES closes").0;
     let python: std::collections::BTreeMap<&str, usize> = table
         .lines()
@@ -174,8 +174,8 @@ fn wire_type_sizes_match_the_python_clients_works() {
         ("ContactFeedback", size_of::<ContactFeedback>()),
         ("StatsSummary", size_of::<StatsSummary>()),
     ];
-    assert_eq!(python.len(), rust.len(), "lamina_wire.py declares {python:?}");
+    assert_eq!(python.len(), rust.len(), "python/lamina/wire.py declares {python:?}");
     for (name, size) in rust {
-        assert_eq!(python.get(name), Some(&size), "{name}: lamina_wire.py against the Rust type");
+        assert_eq!(python.get(name), Some(&size), "{name}: python/lamina/wire.py against the Rust type");
     }
 }

@@ -5,17 +5,16 @@
 //! computed from the page's own type column (`[f64; 3]` is 24 bytes), so the page is read as a
 //! client would read it.
 
-use core::mem::{align_of, offset_of, size_of};
 use core::time::Duration;
 use std::collections::BTreeMap;
 
-use iceoryx2::prelude::{PortFactory as _, ZeroCopySend};
+use iceoryx2::prelude::PortFactory as _;
 use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
 use lamina_bridge::services::{open_message_service, open_nodes_service, open_topology_service, open_wake_service};
-use lamina_bridge::wire::{TopologyHeader, WireLayer, WireSurface, WireTool, WireVolume};
+use lamina_bridge::wire::TypeLayout;
 use lamina_bridge::{
-    Bridge, BridgeConfig, ContactFeedback, FeedbackPublisher, NodesHeader, NodesPublisher, Percentiles, ServiceNames,
-    StatsPublisher, StatsSummary, ToolCommand, ToolPublisher, Topology, TopologyPublisher, UserDomain,
+    Bridge, BridgeConfig, ContactFeedback, FeedbackPublisher, NodesPublisher, ServiceNames, StatsPublisher,
+    StatsSummary, ToolCommand, ToolPublisher, Topology, TopologyPublisher, UserDomain,
 };
 
 fn page() -> String {
@@ -114,87 +113,39 @@ fn doc_type_size(ty: &str, layouts: &BTreeMap<String, Layout>) -> usize {
     }
 }
 
-fn field_size<T, F>(_: fn(&T) -> &F) -> usize {
-    size_of::<F>()
-}
-
-/// Checks one documented struct against `T`: type name, size, alignment, and each field's
-/// offset and size; the documented fields must tile the struct with no gap.
-macro_rules! check_layout {
-    ($layouts:expr, $t:ty, [$($field:ident),+ $(,)?]) => {{
-        let name = stringify!($t);
-        let doc = $layouts.get(name).unwrap_or_else(|| panic!("docs/wire-protocol.md has no section for {name}"));
-        // SAFETY: type_name only returns the name the derive registered; the layout is the
-        // type's own.
-        let registered = unsafe { <$t as ZeroCopySend>::type_name() };
-        assert_eq!(doc.type_name, registered, "{name}: iceoryx2 type name");
-        assert_eq!(doc.size, size_of::<$t>(), "{name}: size");
-        assert_eq!(doc.align, align_of::<$t>(), "{name}: alignment");
-        let code: Vec<(&str, usize, usize)> =
-            vec![$((stringify!($field), offset_of!($t, $field), field_size(|s: &$t| &s.$field))),+];
-        let documented: Vec<&str> = doc.rows.iter().map(|r| r["field"].as_str()).collect();
-        let fields: Vec<&str> = code.iter().map(|c| c.0).collect();
-        assert_eq!(documented, fields, "{name}: documented fields, in order");
-        let mut next = 0;
-        for (row, (field, offset, size)) in doc.rows.iter().zip(&code) {
-            let doc_offset: usize = row["offset"].parse().expect("offset");
-            let doc_size = doc_type_size(&row["type"], &$layouts);
-            assert_eq!(doc_offset, *offset, "{name}.{field}: offset");
-            assert_eq!(doc_size, *size, "{name}.{field}: size of {}", row["type"]);
-            assert_eq!(doc_offset, next, "{name}.{field}: a gap before it");
-            next = doc_offset + doc_size;
-        }
-        assert_eq!(next, doc.size, "{name}: the fields do not fill the documented size");
-    }};
+/// Checks one documented struct against the compiler's layout of the Rust type: type name,
+/// size, alignment, and each field's offset and size; the documented fields must tile the
+/// struct with no gap.
+fn check_layout(layouts: &BTreeMap<String, Layout>, code: &TypeLayout) {
+    let name = code.name;
+    let doc = layouts.get(name).unwrap_or_else(|| panic!("docs/wire-protocol.md has no section for {name}"));
+    assert_eq!(doc.type_name, code.type_name, "{name}: iceoryx2 type name");
+    assert_eq!(doc.size, code.size, "{name}: size");
+    assert_eq!(doc.align, code.align, "{name}: alignment");
+    let documented: Vec<&str> = doc.rows.iter().map(|r| r["field"].as_str()).collect();
+    let fields: Vec<&str> = code.fields.iter().map(|f| f.name).collect();
+    assert_eq!(documented, fields, "{name}: documented fields, in order");
+    let mut next = 0;
+    for (row, field) in doc.rows.iter().zip(&code.fields) {
+        let doc_offset: usize = row["offset"].parse().expect("offset");
+        let doc_size = doc_type_size(&row["type"], layouts);
+        assert_eq!(doc_offset, field.offset, "{name}.{}: offset", field.name);
+        assert_eq!(doc_size, field.size, "{name}.{}: size of {}", field.name, row["type"]);
+        assert_eq!(doc_offset, next, "{name}.{}: a gap before it", field.name);
+        next = doc_offset + doc_size;
+    }
+    assert_eq!(next, doc.size, "{name}: the fields do not fill the documented size");
 }
 
 #[test]
 fn documented_byte_layouts_match_the_types_works() {
     let text = page();
     let l = layouts(&text);
-    check_layout!(l, NodesHeader, [sequence, tick, sim_time_s, publish_time_ns, node_count, reserved]);
-    check_layout!(
-        l,
-        TopologyHeader,
-        [
-            revision,
-            node_count,
-            triangle_count,
-            tex_coord_count,
-            layer_count,
-            surface_count,
-            spring_count,
-            node_layer_count,
-            rest_position_count,
-            model_name,
-            layers,
-            surfaces,
-            tool,
-            volume
-        ]
-    );
-    check_layout!(l, WireLayer, [name, first_node, node_count, tissue, reserved]);
-    check_layout!(l, WireSurface, [name, tissue, grid_cols, grid_rows, index_count]);
-    check_layout!(
-        l,
-        WireTool,
-        [
-            source,
-            reserved,
-            radius_m,
-            min_radius_m,
-            stiffness_n_per_m,
-            device_origin_m,
-            device_rotation,
-            position_scale,
-            force_scale
-        ]
-    );
-    check_layout!(l, WireVolume, [path, origin_m, window, flags, reserved]);
-    check_layout!(l, ToolCommand, [sequence, time_ns, position, orientation, buttons, reserved, tool_radius_m]);
-    check_layout!(l, ContactFeedback, [sequence, tick, publish_time_ns, in_contact, reserved, force, stiffness, x_ref]);
-    check_layout!(l, StatsSummary, [sequence, publish_time_ns, ticks, misses, lateness, compute, period, worst_tick]);
-    check_layout!(l, Percentiles, [p50_ns, p99_ns, p999_ns, max_ns]);
+    let code = lamina_bridge::wire::layouts();
+    for t in &code {
+        check_layout(&l, t);
+    }
+    assert_eq!(code.len(), 10, "wire types: {:?}", code.iter().map(|t| t.name).collect::<Vec<_>>());
     assert_eq!(l.len(), 10, "sections laid out: {:?}", l.keys().collect::<Vec<_>>());
 }
 

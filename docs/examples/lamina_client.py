@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""A Lamina client in Python, written from docs/wire-protocol.md alone.
+"""A Lamina client in Python on the `lamina` package (`pip install ./python`).
 
-Needs the iceoryx2 package 0.10.0 from PyPI (`pip install iceoryx2==0.10.0`), the same
-iceoryx2 release as Lamina. Against a running core (`lamina run --prefix lamina`):
+The package brings the iceoryx2 package 0.10.0 from PyPI, the same iceoryx2 release as
+Lamina, and declares the wire types of docs/wire-protocol.md. Against a running core
+(`lamina run --prefix lamina`):
 
     python3 lamina_client.py --prefix lamina --seconds 3           # topology, frames, stats
     python3 lamina_client.py --prefix lamina --seconds 3 --press   # also drives the tool
@@ -15,236 +16,12 @@ holds, and the client prints the contact force it gets back.
 
 import argparse
 import ctypes
-import os
 import sys
 import time
 
 import iceoryx2 as iox2
 
-
-# --- The wire types (docs/wire-protocol.md, "Byte layout") -------------------------------
-class Vec3f(ctypes.Structure):
-    """One node position, m: the element of the `nodes` payload slice."""
-
-    _fields_ = [("x", ctypes.c_float), ("y", ctypes.c_float), ("z", ctypes.c_float)]
-
-    @staticmethod
-    def type_name():
-        return "[f32; 3]"
-
-
-class NodesHeader(ctypes.Structure):
-    _fields_ = [
-        ("sequence", ctypes.c_uint64),
-        ("tick", ctypes.c_uint64),
-        ("sim_time_s", ctypes.c_double),
-        ("publish_time_ns", ctypes.c_uint64),
-        ("node_count", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaNodesHeaderV1"
-
-
-class WireLayer(ctypes.Structure):
-    _fields_ = [
-        ("name", ctypes.c_uint8 * 32),
-        ("first_node", ctypes.c_uint32),
-        ("node_count", ctypes.c_uint32),
-        ("tissue", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaWireLayerV2"
-
-
-class WireSurface(ctypes.Structure):
-    _fields_ = [
-        ("name", ctypes.c_uint8 * 32),
-        ("tissue", ctypes.c_uint32),
-        ("grid_cols", ctypes.c_uint32),
-        ("grid_rows", ctypes.c_uint32),
-        ("index_count", ctypes.c_uint32),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaWireSurfaceV1"
-
-
-class WireTool(ctypes.Structure):
-    _fields_ = [
-        ("source", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-        ("radius_m", ctypes.c_double),
-        ("min_radius_m", ctypes.c_double),
-        ("stiffness_n_per_m", ctypes.c_double),
-        ("device_origin_m", ctypes.c_double * 3),
-        ("device_rotation", (ctypes.c_double * 3) * 3),
-        ("position_scale", ctypes.c_double),
-        ("force_scale", ctypes.c_double),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaWireToolV1"
-
-
-class WireVolume(ctypes.Structure):
-    _fields_ = [
-        ("path", ctypes.c_uint8 * 256),
-        ("origin_m", ctypes.c_double * 3),
-        ("window", ctypes.c_double * 2),
-        ("flags", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaWireVolumeV1"
-
-
-class TopologyHeader(ctypes.Structure):
-    _fields_ = [
-        ("revision", ctypes.c_uint64),
-        ("node_count", ctypes.c_uint32),
-        ("triangle_count", ctypes.c_uint32),
-        ("tex_coord_count", ctypes.c_uint32),
-        ("layer_count", ctypes.c_uint32),
-        ("surface_count", ctypes.c_uint32),
-        ("spring_count", ctypes.c_uint32),
-        ("node_layer_count", ctypes.c_uint32),
-        ("rest_position_count", ctypes.c_uint32),
-        ("model_name", ctypes.c_uint8 * 64),
-        ("layers", WireLayer * 16),
-        ("surfaces", WireSurface * 8),
-        ("tool", WireTool),
-        ("volume", WireVolume),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaTopologyHeaderV2"
-
-    def word_count(self):
-        surface_words = sum(self.surfaces[i].index_count for i in range(self.surface_count))
-        return (
-            3 * self.triangle_count
-            + 2 * self.tex_coord_count
-            + surface_words
-            + 3 * self.spring_count
-            + self.node_layer_count
-            + 3 * self.rest_position_count
-        )
-
-
-class ToolCommand(ctypes.Structure):
-    _fields_ = [
-        ("sequence", ctypes.c_uint64),
-        ("time_ns", ctypes.c_uint64),
-        ("position", ctypes.c_double * 3),
-        ("orientation", ctypes.c_double * 4),
-        ("buttons", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-        ("tool_radius_m", ctypes.c_double),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaToolCommandV1"
-
-
-class ContactFeedback(ctypes.Structure):
-    _fields_ = [
-        ("sequence", ctypes.c_uint64),
-        ("tick", ctypes.c_uint64),
-        ("publish_time_ns", ctypes.c_uint64),
-        ("in_contact", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
-        ("force", ctypes.c_double * 3),
-        ("stiffness", (ctypes.c_double * 3) * 3),
-        ("x_ref", ctypes.c_double * 3),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaContactFeedbackV1"
-
-
-class Percentiles(ctypes.Structure):
-    _fields_ = [
-        ("p50_ns", ctypes.c_uint64),
-        ("p99_ns", ctypes.c_uint64),
-        ("p999_ns", ctypes.c_uint64),
-        ("max_ns", ctypes.c_uint64),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaPercentilesV1"
-
-
-class StatsSummary(ctypes.Structure):
-    _fields_ = [
-        ("sequence", ctypes.c_uint64),
-        ("publish_time_ns", ctypes.c_uint64),
-        ("ticks", ctypes.c_uint64),
-        ("misses", ctypes.c_uint64),
-        ("lateness", Percentiles),
-        ("compute", Percentiles),
-        ("period", Percentiles),
-        ("worst_tick", ctypes.c_uint64),
-    ]
-
-    @staticmethod
-    def type_name():
-        return "LaminaStatsSummaryV1"
-
-
-# --- Quality of service (docs/wire-protocol.md, "Quality of service") --------------------
-# Set in full, so that this client may also be the one that creates a service.
-BUFFER = {"nodes": 16, "topology": 1, "tool": 4, "feedback": 8, "stats": 4}
-
-
-def pubsub(node, name, payload, header=None):
-    builder = node.service_builder(iox2.ServiceName.new(name)).publish_subscribe(payload)
-    if header is not None:
-        builder = builder.user_header(header)
-    return (
-        builder.enable_safe_overflow(True)
-        .history_size(1)
-        .subscriber_max_buffer_size(BUFFER[name.rsplit("/", 1)[1]])
-        .subscriber_max_borrowed_samples(2)
-        .max_subscribers(8)
-        .max_publishers(2)
-        .max_nodes(20)
-        .open_or_create()
-    )
-
-
-def event(node, name):
-    return (
-        node.service_builder(iox2.ServiceName.new(name))
-        .event()
-        .max_listeners(16)
-        .max_notifiers(4)
-        .max_nodes(20)
-        .open_or_create()
-    )
-
-
-def lamina_node():
-    """An iceoryx2 node in this user's Lamina domain (docs/wire-protocol.md, "Domain")."""
-    uid = os.geteuid()
-    root = os.environ.get("LAMINA_IPC_DIR") or os.path.join(os.environ.get("TMPDIR") or "/tmp", f"lamina-{uid}")
-    config = iox2.config.default()
-    config.global_cfg.root_path = iox2.Path.new(root.rstrip("/") + "/")
-    config.global_cfg.prefix = iox2.FileName.new(f"iox2_lamina_u{uid}_")
-    return iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
+from lamina import wire as lw
 
 
 def now_ns():
@@ -260,20 +37,17 @@ def main():
     ap.add_argument("--origin", help="tool start, m, x,y,z (default: the topology's device origin)")
     args = ap.parse_args()
     p = args.prefix
-    iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
-    node = lamina_node()
-
-    topology = pubsub(node, f"{p}/topology", iox2.Slice[ctypes.c_uint32], TopologyHeader)
-    nodes = pubsub(node, f"{p}/nodes", iox2.Slice[Vec3f], NodesHeader)
-    stats = pubsub(node, f"{p}/stats", StatsSummary)
-    topology_sub = topology.subscriber_builder().create()
-    nodes_sub = nodes.subscriber_builder().create()
-    stats_sub = stats.subscriber_builder().create()
-    nodes_listener = event(node, f"{p}/nodes").listener_builder().create()
+    # The node lives in this user's Lamina domain; every service is opened (or created, when
+    # the client starts first) with Lamina's settings (docs/wire-protocol.md).
+    node = lw.open_node()
+    topology_sub = lw.topology_service(node, p).subscriber_builder().create()
+    nodes_sub = lw.nodes_service(node, p).subscriber_builder().create()
+    stats_sub = lw.stats_service(node, p).subscriber_builder().create()
+    nodes_listener = lw.wake_listener(node, p, "nodes")
     tool_pub = feedback_sub = None
     if args.press:
-        tool_pub = pubsub(node, f"{p}/tool", ToolCommand).publisher_builder().create()
-        feedback_sub = pubsub(node, f"{p}/feedback", ContactFeedback).subscriber_builder().create()
+        tool_pub = lw.tool_service(node, p).publisher_builder().create()
+        feedback_sub = lw.feedback_service(node, p).subscriber_builder().create()
     origin = [float(v) for v in args.origin.split(",")] if args.origin else None
     press_start = None
 
@@ -342,7 +116,7 @@ def main():
             press_start = press_start or now_ns()
             t = (now_ns() - press_start) / 1e9
             depth = min(t, 1.0) * 0.008
-            cmd = ToolCommand(
+            cmd = lw.ToolCommand(
                 sequence=commands,
                 time_ns=now_ns(),
                 position=(ctypes.c_double * 3)(origin[0], origin[1] - depth, origin[2]),

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-import lamina_wire as lw
+from lamina import wire as lw
 
 
 def touch_point(x: np.ndarray) -> tuple[int, np.ndarray]:

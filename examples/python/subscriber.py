@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-import lamina_wire as lw
+from lamina import wire as lw
 
 
 def main() -> int:

@@ -18,11 +18,11 @@ import select
 import sys
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples", "python"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "python"))
 
 import iceoryx2 as iox2  # noqa: E402
 
-import lamina_wire as lw  # noqa: E402
+from lamina import wire as lw  # noqa: E402
 
 SERVICES = {
     "nodes": (iox2.Slice[lw.Position], lw.NodesHeader),

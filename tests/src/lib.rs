@@ -93,3 +93,10 @@ pub fn read_json(path: &std::path::Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
+
+/// The repository's Python package directory (`python/`, holding `lamina/`), for
+/// `PYTHONPATH`: the Python clients under test import this checkout's `lamina`, not an
+/// installed copy of another revision.
+pub fn python_package_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../python")
+}

@@ -1,5 +1,5 @@
-//! docs/examples/lamina_client.py, the Python client written from docs/wire-protocol.md with
-//! the iceoryx2 package 0.10.0 from PyPI, against a running core: it must read the topology,
+//! docs/examples/lamina_client.py, the Python client on the `lamina` package (this checkout's
+//! `python/`, on `PYTHONPATH`) and the iceoryx2 package 0.10.0 from PyPI, against a running core: it must read the topology,
 //! node frames without a gap and statistics, find `sim_time_s = (tick + 11) / rate_hz`, and
 //! press the tool into contact.
 //!
@@ -8,7 +8,7 @@
 //! interpreter (default `python3`).
 
 use lamina_core::scene::Scene;
-use lamina_tests::{unique_prefix, wait_with_watchdog, workspace_bin};
+use lamina_tests::{python_package_dir, unique_prefix, wait_with_watchdog, workspace_bin};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -50,6 +50,7 @@ fn python_client_reads_frames_and_presses_the_tool_works() {
     std::thread::sleep(Duration::from_millis(1000));
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/examples/lamina_client.py");
     let out = Command::new(python())
+        .env("PYTHONPATH", python_package_dir())
         .arg(&script)
         .args(["--prefix", &prefix, "--seconds", "2.5", "--press"])
         .output()

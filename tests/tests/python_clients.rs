@@ -2,17 +2,20 @@
 //! `lamina run`: the subscriber reads the topology and node frames as numpy arrays, the
 //! haptic driver presses the default scene's skin step by step and reads the contact force.
 //! Both print JSON that is checked here against the model (node count, rest bounding box) and
-//! against the same press computed offline with the physics library. A client that created a
+//! against the same press computed offline with the physics library. `lamina.Core` (the package in
+//! python/) reads the topology and frames as numpy arrays, presses 8 mm and gets the force
+//! docs/haptics.md reports, and raises the errors it documents. A client that created a
 //! service first with the binding's default settings makes `lamina run` stop with an error
 //! naming the setting, the value found and the value Lamina needs.
 //!
-//! Needs `python3` with `pip install -r examples/python/requirements.txt`; without them the
+//! Needs `python3` with `pip install -r examples/python/requirements.txt` (the clients import
+//! this checkout's `python/lamina` through `PYTHONPATH`); without them the
 //! tests print SKIP, unless `LAMINA_REQUIRE_PYTHON_CLIENTS` is set (CI sets it), then they fail.
 
 use lamina_bridge::{Bridge, BridgeConfig};
 use lamina_core::hand_tool::HandTool;
 use lamina_core::scene::Scene;
-use lamina_tests::{unique_prefix, wait_with_watchdog, workspace_bin};
+use lamina_tests::{python_package_dir, unique_prefix, wait_with_watchdog, workspace_bin};
 use serde_json::Value;
 use std::io::Read;
 use std::path::PathBuf;
@@ -52,7 +55,11 @@ fn python_ready(test: &str) -> bool {
 
 fn python(script: &str, args: &[&str]) -> Command {
     let mut cmd = Command::new("python3");
-    cmd.arg(examples_dir().join(script)).args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
+    cmd.env("PYTHONPATH", python_package_dir())
+        .arg(examples_dir().join(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
     cmd
 }
 
@@ -330,6 +337,7 @@ fn python_client_with_default_settings_first_makes_lamina_run_name_the_setting_w
     // holds it until its stdin closes.
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/create_with_defaults.py");
     let mut holder = Command::new("python3")
+        .env("PYTHONPATH", python_package_dir())
         .arg(&script)
         .args(["--prefix", &prefix, "--services", "nodes"])
         .stdin(Stdio::piped())
@@ -385,4 +393,81 @@ fn python_client_with_default_settings_first_makes_lamina_run_name_the_setting_w
         .expect("starting lamina run");
     let (status, out, err) = finish(core, Duration::from_secs(120), "lamina run");
     assert!(status.success(), "lamina run starts once the client is gone: {out}\n{err}");
+}
+
+/// Drives `lamina.Core` (python/lamina/client.py): prints one JSON object with what it read,
+/// the force after an 8 mm press from the device origin, and the errors it raised.
+const CORE_API: &str = r#"
+import json, sys, time
+import lamina
+prefix = sys.argv[1]
+out = {}
+with lamina.Core(prefix, timeout_s=60) as core:
+    t = core.topology
+    a, b = core.newest_nodes(), core.newest_nodes()
+    origin = t["tool"]["device_origin_m"]
+    start = time.monotonic()
+    while (s := time.monotonic() - start) < 1.5:
+        core.send_sphere([origin[0], origin[1] - 0.008 * min(s, 1.0), origin[2]])
+        time.sleep(0.002)
+    fb = core.newest_feedback()
+    out.update(node_count=t["node_count"], rest_shape=list(t["rest_positions"].shape),
+               frame_shape=list(b.positions.shape), frame_dtype=str(b.positions.dtype),
+               sequences=[a.sequence, b.sequence], device_origin_m=origin.tolist(),
+               in_contact=fb.in_contact, force=fb.force.tolist())
+    try:
+        core.send_sphere([0.0, 0.1])
+    except ValueError as e:
+        out["bad_position"] = str(e)
+try:
+    lamina.Core(prefix, timeout_s=0)
+except ValueError as e:
+    out["bad_timeout"] = str(e)
+try:
+    lamina.Core(prefix + "_absent", timeout_s=0.5)
+except lamina.LaminaError as e:
+    out["absent"] = str(e)
+print(json.dumps(out))
+"#;
+
+#[test]
+fn python_package_core_reads_frames_and_presses_the_tool_works() {
+    let test = "python_package_core_reads_frames_and_presses_the_tool_works";
+    if !python_ready(test) {
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let prefix = unique_prefix("pycore");
+    let core = start_core(&prefix);
+    let client = Command::new("python3")
+        .env("PYTHONPATH", python_package_dir())
+        .args(["-c", CORE_API, &prefix])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting python3");
+    let (status, out, err) = finish(client, Duration::from_secs(180), "lamina.Core client");
+    let (_, core_out, core_err) = stop(core);
+    assert!(status.success(), "lamina.Core client: {status}\n{out}\n{err}\ncore: {core_err}");
+    let v = json_of(&out, "lamina.Core client");
+    let nodes = printed_node_count(&core_out);
+    assert_eq!(v["node_count"].as_u64(), Some(nodes), "{v}");
+    let n = nodes as f64;
+    assert_eq!(f64s(&v["rest_shape"]), [n, 3.0], "{v}");
+    assert_eq!(f64s(&v["frame_shape"]), [n, 3.0], "{v}");
+    assert_eq!(v["frame_dtype"], "float32", "{v}");
+    let seq = f64s(&v["sequences"]);
+    assert!(seq[1] > seq[0], "the second newest frame is newer: {v}");
+    let (_, origin) = model_tool();
+    for (got, want) in f64s(&v["device_origin_m"]).iter().zip(origin) {
+        assert!((got - want).abs() < 1e-9, "device origin against the scene's: {v}");
+    }
+    // The 8 mm press of docs/haptics.md: 0.100 N up (+y) on the tool.
+    assert_eq!(v["in_contact"], true, "{v}");
+    let fy = f64s(&v["force"])[1];
+    assert!(fy > 0.07 && fy < 0.14, "force after the 8 mm press: {v}");
+    let text = |k: &str| v[k].as_str().unwrap_or_else(|| panic!("no '{k}' error raised: {v}")).to_string();
+    assert!(text("bad_position").contains("position_m") && text("bad_position").contains("[0.0, 0.1]"), "{v}");
+    assert!(text("bad_timeout").contains("timeout_s") && text("bad_timeout").contains("0.0"), "{v}");
+    assert!(text("absent").contains(&format!("{prefix}_absent/topology")) && text("absent").contains("0.5 s"), "{v}");
 }

@@ -1,7 +1,8 @@
 """Lamina's iceoryx2 wire contract for Python clients, on the official `iceoryx2` package.
 
-This module mirrors three parts of the Rust crate `lamina-bridge`; a change there must be
-made here too:
+The one Python mirror of the Rust crate `lamina-bridge`. It mirrors three parts of that
+crate; a change there must be made here too (the workspace test `python_wire_layout`
+compares every structure's size, alignment and field offsets with the Rust types):
 
 * the user's iceoryx2 domain (`bridge/src/domain.rs`, `bridge/src/bridge.rs`): root directory
   `$LAMINA_IPC_DIR/`, or `<TMPDIR or /tmp>/lamina-<uid>/`, created mode 0700 and refused when
@@ -40,7 +41,7 @@ except importlib.metadata.PackageNotFoundError:  # a source build without metada
 if _iox2_version is not None and not _iox2_version.startswith(IOX2_SERIES):
     print(
         f"warning: iceoryx2 {_iox2_version} is installed; Lamina speaks iceoryx2 {IOX2_SERIES}x and a service "
-        "of another release may refuse to open (pip install -r examples/python/requirements.txt)",
+        "of another release may refuse to open (pip install ./python)",
         file=sys.stderr,
     )
 
@@ -293,7 +294,8 @@ class StatsSummary(ctypes.Structure):
         return "LaminaStatsSummaryV1"
 
 
-# The byte sizes of the Rust types (bridge/tests/settings.rs checks the same figures).
+# The byte sizes of the Rust types (bridge/tests/settings.rs checks the same figures; the
+# workspace test `python_wire_layout` checks every field's offset too).
 WIRE_SIZES = {
     Position: 12,
     NodesHeader: 40,
