@@ -45,7 +45,7 @@ fn bench_capacity_refuses_bad_options_by_name_fails() {
         &["bench", "capacity"],
         &[
             (&["--grids", "", "--scenes", ""], "nothing to measure"),
-            (&["--grids", "24"], "unknown grid '24'"),
+            (&["--grids", "24"], "--grids '24': expected WxH"),
             (&["--ratio", "1"], "--ratio 1"),
             (&["--threads", "0"], "thread count '0'"),
             (&["--ticks", "2"], "--ticks 2"),
