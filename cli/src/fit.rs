@@ -494,7 +494,6 @@ fn fit_scene_indentation(path: &Path, label: &str, tensile: SceneSprings, opts: 
     }
     let curve_csv = opts.out.join(format!("indentation_{safe}_curve.csv"));
     std::fs::write(&curve_csv, curve).map_err(|e| format!("{}: {e}", curve_csv.display()))?;
-    let at = |mm: f64| (mm * 1e-3 / band.depth_m).powf(1.5);
     let depths: Vec<f64> = fit.curves.first().map(|c| c.depth_m.iter().map(|d| d * 1e3).collect()).unwrap_or_default();
     let mut series: Vec<super::plot::Series> = fit
         .curves
@@ -507,7 +506,7 @@ fn fit_scene_indentation(path: &Path, label: &str, tensile: SceneSprings, opts: 
     for (end, force) in [("low", band.force_min_n), ("high", band.force_max_n)] {
         series.push(super::plot::Series {
             name: format!("band {end}: Hertz through {force:.0} N at {:.0} mm", band.depth_m * 1e3),
-            points: depths.iter().map(|d| (*d, force * at(*d))).collect(),
+            points: depths.iter().map(|d| (*d, band.hertz_through(force, *d))).collect(),
         });
     }
     let png = opts.out.join(format!("indentation_{safe}_fit.png"));

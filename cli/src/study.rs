@@ -388,11 +388,10 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     );
     if depth_mm as f64 * 1e-3 >= band.depth_m {
         // The band's ends drawn as Hertz curves (F ~ d^1.5) through them.
-        let at = |mm: f64| (mm * 1e-3 / band.depth_m).powf(1.5);
         for (end, force) in [("low", band.force_min_n), ("high", band.force_max_n)] {
             series.push(Series {
                 name: format!("band {end}: Hertz through {force:.0} N at {:.0} mm", band.depth_m * 1e3),
-                points: (1..=depth_mm).map(|d| (f64::from(d), force * at(f64::from(d)))).collect(),
+                points: (1..=depth_mm).map(|d| (f64::from(d), band.hertz_through(force, f64::from(d)))).collect(),
             });
         }
     }

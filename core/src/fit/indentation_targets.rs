@@ -212,6 +212,12 @@ impl BandCheck {
 }
 
 impl IndentationBand {
+    /// The Hertz curve (F ∝ d^{3/2}) through `force_n` at the band's depth, at `depth_mm`, N:
+    /// how the band's ends are drawn beside a measured curve.
+    pub fn hertz_through(&self, force_n: f64, depth_mm: f64) -> f64 {
+        force_n * (depth_mm * 1e-3 / self.depth_m).powf(1.5)
+    }
+
     /// Checks forces `force_n` at depths `depth_m` (m, increasing), reading the two depths by
     /// linear interpolation; `None` when the curve does not reach the band's depth.
     pub fn check(&self, depth_m: &[f64], force_n: &[f64]) -> Option<BandCheck> {
