@@ -37,6 +37,7 @@
 pub mod fit;
 pub mod generator;
 pub mod hand_tool;
+pub mod incision;
 pub mod io;
 pub mod law;
 pub mod model;

@@ -255,6 +255,18 @@ impl<T: Real> ImplicitFactored<T> {
         dynamics.counters.cg_iterations += self.iterations as u64;
     }
 
+    /// Cuts model spring `spring` out of the runs; its two nodes when it was in them and not
+    /// cut before. Allocates nothing.
+    pub(crate) fn cut_spring(&mut self, spring: usize) -> Option<[u32; 2]> {
+        if !self.runs.cut(spring) {
+            return None;
+        }
+        let k = self.runs.slot[spring];
+        let i = self.runs.runs.partition_point(|r| r.first <= k) - 1;
+        let r = self.runs.runs[i];
+        Some([r.a0 + (k - r.first), r.b0 + (k - r.first)])
+    }
+
     /// Spring forces at `(x, v)` into the windows, and each spring's tangent data.
     fn spring_forces(&mut self, pool: &WorkerPool, x: &Vec3s<T>, v: &Vec3s<T>) {
         let simd = self.simd;

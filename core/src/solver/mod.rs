@@ -47,7 +47,7 @@ pub use multirate::{FrameChanges, MultirateStatus, region_radius};
 pub use multirate_settings::{LateBuild, MAX_BUILD_EXCHANGES, MAX_MULTIRATE_RATIO, MultirateSettings};
 pub use params::{IntegrationParameters, IntegratorKind, Substeps};
 pub use simd::SimdLevel;
-pub use simulation::{GuardTotals, Simulation, SimulationBuildError};
+pub use simulation::{CutError, GuardTotals, Simulation, SimulationBuildError};
 pub use skin_contact::largest_skin_node_area;
 pub use skin_volume::SkinVolume;
 pub use sparse_cholesky::FactorStorage;

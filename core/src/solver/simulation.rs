@@ -85,6 +85,19 @@ pub struct Simulation<T: Real> {
     totals: GuardTotals,
     /// The bulk's thread and the coupling, with multirate stepping.
     multirate: Option<Multirate<T>>,
+    /// Springs cut so far ([`Simulation::cut_spring`]).
+    cuts: u64,
+}
+
+/// Why a simulation cannot be cut.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CutError {
+    /// Only the real-time implicit integrator masks springs in its runs.
+    #[error("cutting needs integrator implicit_factored, not {0}")]
+    Integrator(IntegratorKind),
+    /// The region and the bulk of a multirate simulation hold springs of their own.
+    #[error("cutting a multirate simulation is not supported: step the scene single-rate (no [solver.multirate])")]
+    Multirate,
 }
 
 /// The stiffest mode of `model` under `dynamics`' effects: the springs' (60 power
@@ -302,6 +315,7 @@ impl<T: Real> Simulation<T> {
             totals: GuardTotals::default(),
             params,
             multirate: None,
+            cuts: 0,
         };
         sim.substeps_needed = sim.substeps_needed(sim.params.integrator);
         sim.substeps = sim.substeps_needed.clamp(1, u64::from(sim.params.max_substeps.max(1))) as u32;
@@ -484,6 +498,44 @@ impl<T: Real> Simulation<T> {
         (self.implicit.last_iterations, self.implicit.last_residual)
     }
 
+    /// Whether springs can be cut ([`Simulation::cut_spring`]): single-rate
+    /// `implicit_factored` only.
+    ///
+    /// # Errors
+    /// [`CutError`] names what stands in the way.
+    pub fn can_cut(&self) -> Result<(), CutError> {
+        if self.multirate.is_some() {
+            return Err(CutError::Multirate);
+        }
+        match self.factored {
+            Some(_) => Ok(()),
+            None => Err(CutError::Integrator(self.params.integrator)),
+        }
+    }
+
+    /// Cuts model spring `spring` (file order): from the next step on it has no force and
+    /// no stiffness, and the skin tetrahedra with both its nodes lose their volume term.
+    /// Returns whether the spring was cut now (false: cut before, between two held nodes,
+    /// out of range, or [`Simulation::can_cut`] refuses). The factored preconditioner keeps
+    /// its matrix: it stays a valid, stiffer preconditioner of the cut system. Allocates
+    /// nothing.
+    pub fn cut_spring(&mut self, spring: usize) -> bool {
+        if self.multirate.is_some() {
+            return false;
+        }
+        let Some(solver) = &mut self.factored else { return false };
+        let Some([a, b]) = solver.cut_spring(spring) else { return false };
+        self.dynamics.skin_volume.remove_tets_with_edge(a, b);
+        self.cuts += 1;
+        self.verlet.valid_at = None;
+        true
+    }
+
+    /// Springs cut so far.
+    pub fn cuts(&self) -> u64 {
+        self.cuts
+    }
+
     /// Rest positions, m.
     pub fn rest_positions(&self) -> &Vec3s<T> {
         match &self.multirate {
@@ -613,7 +665,9 @@ impl<T: Real> Simulation<T> {
                 }
             }
         }
-        if recovery == Recovery::Frozen {
+        // The fallback's implicit Euler streams the springs as built, cut ones included: after
+        // a cut the frame is frozen instead.
+        if recovery == Recovery::Frozen && self.cuts == 0 {
             self.verlet.valid_at = None;
             self.state.copy_from(&self.snapshot);
             if !self.advance(IntegratorKind::ImplicitEuler, 1, stop) {

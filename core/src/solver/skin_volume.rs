@@ -110,6 +110,24 @@ impl SkinVolume {
         self.nodes.dedup();
     }
 
+    /// Takes the volume term off every tetrahedron with both `a` and `b` among its corners
+    /// (a cut through their edge); returns how many lost it now. Allocates nothing.
+    pub fn remove_tets_with_edge(&mut self, a: u32, b: u32) -> usize {
+        let mut removed = 0;
+        for (tet, inv) in self.tets.iter().zip(self.inv_36_abs_rest.iter_mut()) {
+            if *inv != 0.0 && tet.contains(&a) && tet.contains(&b) {
+                *inv = 0.0;
+                removed += 1;
+            }
+        }
+        removed
+    }
+
+    /// Whether tetrahedron `t` still has its volume term (false once cut through).
+    pub fn is_intact(&self, t: usize) -> bool {
+        self.inv_36_abs_rest.get(t).is_some_and(|&inv| inv != 0.0)
+    }
+
     /// Adds the volume forces at positions `x` (m) for stiffness `k` (Pa) into `f` (N). Nodes
     /// of [`SkinVolume::nodes`] must have been zeroed or hold other forces of this evaluation.
     pub fn add_forces<T: Real>(&self, k: f64, x: &Vec3s<T>, f: &mut Vec3s<T>) {
@@ -187,7 +205,9 @@ impl SkinVolume {
         self.tets
             .iter()
             .zip(&self.rest_volume)
-            .map(|(tet, &v0)| {
+            .zip(&self.inv_36_abs_rest)
+            .filter(|(_, inv)| **inv != 0.0)
+            .map(|((tet, &v0), _)| {
                 let v = signed_volume(tet.map(|i| x.get_f64(i as usize)));
                 0.5 * k * (v - v0) * (v - v0) / v0.abs()
             })

@@ -61,9 +61,15 @@ pub struct SpringRuns<T> {
     /// Per spring: turning length, m (the rest length for a linear spring, whose phases are
     /// one line).
     pub turn: Vec<T>,
-    /// Per spring: 1 for a real spring, 0 for a null one.
+    /// Per spring: 1 for a real spring, 0 for a null one or one that was cut.
     pub real: Vec<u8>,
+    /// Per model spring (file order): the index of its data, or [`LEFT_OUT`] for a spring
+    /// between two held nodes.
+    pub slot: Vec<u32>,
 }
+
+/// [`SpringRuns::slot`] of a spring the runs leave out (both its nodes held).
+pub const LEFT_OUT: u32 = u32::MAX;
 
 /// `law`'s material and turning length.
 fn material_of(law: SpringLaw, rest: f64, c: f64) -> (Material, f64) {
@@ -106,6 +112,7 @@ impl<T: Real> SpringRuns<T> {
             rest: Vec::with_capacity(order.len()),
             turn: Vec::with_capacity(order.len()),
             real: Vec::with_capacity(order.len()),
+            slot: vec![LEFT_OUT; springs.len()],
         };
         // A null spring at first node `a` with offset `off` exists if both its nodes do.
         let fits = |a: usize, off: i64| a < n && (a as i64 + off) >= 0 && ((a as i64 + off) as usize) < n;
@@ -128,6 +135,7 @@ impl<T: Real> SpringRuns<T> {
                 let rest = springs.rest_length[s];
                 out.rest.push(T::from_f64(rest));
                 out.turn.push(T::from_f64(if turn.is_finite() { turn } else { rest }));
+                out.slot[s] = out.real.len() as u32;
                 out.real.push(1);
                 next = a as usize + 1;
                 k += 1;
@@ -160,6 +168,18 @@ impl<T: Real> SpringRuns<T> {
         self.rest.push(T::ONE);
         self.turn.push(T::ONE);
         self.real.push(0);
+    }
+
+    /// Takes model spring `s` out of the runs (its lane mask zeroed: no force, no tangent);
+    /// returns whether it was in them and not cut before. Allocates nothing.
+    pub fn cut(&mut self, s: usize) -> bool {
+        match self.slot.get(s) {
+            Some(&k) if k != LEFT_OUT && self.real[k as usize] == 1 => {
+                self.real[k as usize] = 0;
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Springs computed per pass, null springs included.
@@ -203,6 +223,7 @@ mod tests {
                     let idx = (0..s.len()).find(|&j| s.a[j] == a && s.b[j] == b).expect("a model spring");
                     covered[idx] += 1;
                     assert_eq!(runs.rest[k], s.rest_length[idx]);
+                    assert_eq!(runs.slot[idx] as usize, k);
                 }
             }
         }
