@@ -262,6 +262,26 @@ enum StudyCommand {
         #[arg(long, default_value = "out/study")]
         out: PathBuf,
     },
+    /// A cut through skin and fat along the top of a living limb, drawn by the scalpel at the
+    /// scene's tick: springs cut per layer, forces, and how far the wound gapes against a
+    /// pre-strained sheet's closed form.
+    Incision {
+        /// Scene with a tool and a [scalpel] table.
+        #[arg(long, default_value = "config/scenes/incision.toml")]
+        scene: PathBuf,
+        /// Length of the cut along the limb, mm.
+        #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u32).range(5..=150))]
+        length_mm: u32,
+        /// Depth of the blade's tip below the skin, mm.
+        #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=30))]
+        depth_mm: u32,
+        /// Speed of the blade, mm/s.
+        #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=200))]
+        speed_mm_s: u32,
+        /// Output folder for the CSV.
+        #[arg(long, default_value = "out/study")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -487,6 +507,9 @@ fn run(command: Command) -> Result<(), String> {
         Command::Study { what: StudyCommand::Stability { json } } => study::stability(json),
         Command::Study { what: StudyCommand::Indentation { scene, sites, depth_mm, out } } => {
             study::indentation(&scene, sites as usize, depth_mm, &out)
+        }
+        Command::Study { what: StudyCommand::Incision { scene, length_mm, depth_mm, speed_mm_s, out } } => {
+            study::incision(&scene, length_mm, depth_mm, speed_mm_s, &out)
         }
         Command::Bench { what: BenchCommand::Effects { scene, batch_seconds } } => {
             let scene = run::load_scene(&scene)?;

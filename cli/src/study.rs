@@ -411,3 +411,87 @@ pub fn indentation(scenes: &[std::path::PathBuf], sites: usize, depth_mm: u32, o
     tracing::info!("written: {} and {}", csv_path.display(), png.display());
     Ok(())
 }
+
+/// The `p`-quantile (0 to 1) of `v`, s (0 for none).
+fn quantile(v: &[f64], p: f64) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() { 0.0 } else { v[((v.len() - 1) as f64 * p).round() as usize] }
+}
+
+/// Runs `lamina study incision`: the cut drawn on `scene`, printed and written as CSV.
+pub fn incision(scene: &Path, length_mm: u32, depth_mm: u32, speed_mm_s: u32, out: &Path) -> Result<(), String> {
+    use lamina_core::study::{IncisionCase, incision_study};
+    let loaded = Scene::load(scene).map_err(|e| e.to_string())?;
+    if loaded.scalpel.is_none() {
+        return Err(format!("{}: the scene has no [scalpel] table (docs/scene-format.md#scalpel)", scene.display()));
+    }
+    let case = IncisionCase {
+        length_m: f64::from(length_mm) * 1e-3,
+        depth_m: f64::from(depth_mm) * 1e-3,
+        speed_m_s: f64::from(speed_mm_s) * 1e-3,
+        ..IncisionCase::default()
+    };
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let r = incision_study(&loaded, &case).map_err(|e| format!("{}: {e}", scene.display()))?;
+    println!(
+        "incision: {} - a {length_mm} mm cut, tip {depth_mm} mm under the skin, drawn at {speed_mm_s} mm/s, then {:.1} s to settle",
+        loaded.name, case.settle_s
+    );
+    println!("{:<34} {:>8} {:>8} {:>8}", "", "skin", "fat", "muscle");
+    println!("{:<34} {:>8} {:>8} {:>8}", "springs cut", r.springs_cut[0], r.springs_cut[1], r.springs_cut[2]);
+    let d = r.deepest;
+    println!(
+        "{:<34} {:>8.1} {:>8.1} {:>8.1}",
+        "deepest edge in the layer, mm",
+        d.skin * 1e3,
+        d.fat * 1e3,
+        d.muscle * 1e3
+    );
+    println!("press force when the skin gave      {:.2} N ({} puncture)", r.peak_press_force, r.punctures);
+    println!(
+        "peak cutting force                  {:.2} N ({:.1} mm of tip travel in the tissue)",
+        r.peak_cutting_force,
+        r.cut_length_m * 1e3
+    );
+    println!("\nwound gape on the outer skin (cut skin springs, length after less before)");
+    println!("{:>10} {:>10}", "z mm", "gap mm");
+    let mut csv = String::from("z_m,gap_m\n");
+    let mut gaps = r.gaps.clone();
+    gaps.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (z, g) in &gaps {
+        println!("{:>10.1} {:>10.2}", z * 1e3, g * 1e3);
+        csv.push_str(&format!("{z},{g}\n"));
+    }
+    let (lo, hi) = r.closed_form_gap_m;
+    println!(
+        "widest {:.2} mm, mean {:.2} mm; a free sheet at the scene's {:.1} % pre-strain opens {:.1}-{:.1} mm mid-cut (2 L eps / (1 - nu), nu 0-1/3)",
+        r.max_gap() * 1e3,
+        r.mean_gap() * 1e3,
+        r.skin_prestrain * 100.0,
+        lo * 1e3,
+        hi * 1e3
+    );
+    let (before, after) = r.residual_before_after;
+    println!(
+        "PCG relative residual per tick: {before:.3} before the first cut, {after:.3} after the last (the old factor preconditions)"
+    );
+    println!("compute per tick on this loop (unpinned):");
+    for (what, v) in [("ticks that cut", &r.tick_seconds_cutting), ("other ticks", &r.tick_seconds_other)] {
+        println!(
+            "  {what:<16} {:>6} ticks   p50 {:>7.1} us   p99 {:>7.1} us   max {:>7.1} us",
+            v.len(),
+            quantile(v, 0.5) * 1e6,
+            quantile(v, 0.99) * 1e6,
+            quantile(v, 1.0) * 1e6
+        );
+    }
+    println!("every state finite: {}", r.finite);
+    let path = out.join("incision_gaps.csv");
+    std::fs::write(&path, csv).map_err(|e| format!("{}: {e}", path.display()))?;
+    tracing::info!("written: {}", path.display());
+    if !r.finite {
+        return Err("a state was not finite".into());
+    }
+    Ok(())
+}

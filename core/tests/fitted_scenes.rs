@@ -111,3 +111,13 @@ fn a_scene_without_fitted_springs_is_told_apart_fails() {
     let ModelSource::CylinderLimb { springs: Some(fitted), .. } = with.model else { panic!("fitted springs") };
     assert!(differs(&defaults.fat.spring, &fitted.fat) > 1.0, "the default fat spring is not the fitted one");
 }
+
+#[test]
+fn the_incision_scene_runs_the_living_limbs_springs_works() {
+    // Same grid, same fit: config/scenes/incision.toml is the living limb with a scalpel.
+    let springs = |name: &str| match Scene::load(&repo(&format!("config/scenes/{name}.toml"))).unwrap().model {
+        ModelSource::CylinderLimb { springs, columns, rows, length, .. } => (springs, columns, rows, length),
+        other => panic!("{name}: not a cylinder limb: {other:?}"),
+    };
+    assert_eq!(springs("incision"), springs("limb-in-vivo"));
+}

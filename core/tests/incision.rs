@@ -159,3 +159,77 @@ fn a_press_below_the_puncture_force_cuts_nothing_and_a_stab_then_cuts_works() {
     // Skin 1,700 N/m over at most its 2 mm, fat 170 N/m over the rest of the 6 mm.
     assert!(resisted > 0.0 && resisted <= 1700.0 * 0.0025 + 170.0 * 0.006, "{resisted} N");
 }
+
+fn incision_scene(in_vivo: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenes/incision.toml");
+    let text = std::fs::read_to_string(&path).expect("the incision scene");
+    let (head, tail) = text.split_once("[in_vivo]").expect("the scene has [in_vivo]");
+    let rest = &tail[tail.find("\n[").expect("a table after [in_vivo]")..];
+    Scene::from_toml_str(&format!("{head}[in_vivo]\n{in_vivo}\n{rest}"), Some(&path)).expect("scene")
+}
+
+#[test]
+fn a_cut_through_prestrained_skin_gapes_and_without_prestrain_stays_shut_works() {
+    use lamina_core::study::{IncisionCase, incision_study};
+    let case = IncisionCase::default();
+    let tense = incision_study(&incision_scene("skin_prestrain = 0.03"), &case).expect("study");
+    let slack = incision_study(&incision_scene("skin_prestrain = 0.0"), &case).expect("study");
+    assert!(tense.finite && slack.finite);
+    assert!(
+        tense.springs_cut[0] > 0 && tense.springs_cut[1] > 0 && tense.springs_cut[2] == 0,
+        "{:?}",
+        tense.springs_cut
+    );
+    assert!(tense.punctures == 1 && tense.gaps.len() >= 3, "{} punctures, {} gaps", tense.punctures, tense.gaps.len());
+    // Pre-strained skin opens by millimetres, widest mid-cut (Griffith's elliptical opening),
+    // below the closed form for a free sheet (the fat holds the skin).
+    let (lo, hi) = tense.closed_form_gap_m;
+    assert!((lo - 0.003).abs() < 1e-12 && (hi - 0.0045).abs() < 1e-12, "2 L eps, 3 L eps: {lo} {hi}");
+    assert!(tense.max_gap() > 0.001 && tense.max_gap() < hi, "{:?}", tense.gaps);
+    let mid = tense.gaps.iter().min_by(|a, b| (a.0 - 0.12).abs().total_cmp(&(b.0 - 0.12).abs())).unwrap();
+    let ends = tense.gaps.iter().filter(|g| (g.0 - 0.12).abs() > 0.015);
+    for end in ends {
+        assert!(end.1 < mid.1, "the ends open less than the middle: {:?}", tense.gaps);
+    }
+    // Without pre-strain the cut stays shut (under 0.05 mm).
+    assert!(slack.max_gap() < 5e-5, "{:?}", slack.gaps);
+    // Two runs give the same bits.
+    let again = incision_study(&incision_scene("skin_prestrain = 0.03"), &case).expect("study");
+    let bits = |r: &lamina_core::study::IncisionResult| {
+        r.final_positions.iter().flat_map(|p| p.map(f64::to_bits)).collect::<Vec<u64>>()
+    };
+    assert_eq!(bits(&tense), bits(&again));
+}
+
+#[test]
+fn a_piece_cut_free_stays_finite_and_where_it_was_works() {
+    let (scene, model) = living_limb();
+    let (mut sim, _) = simulation(&scene, &model);
+    // Free a patch of outer skin: every spring of its nodes and their neighbours cut.
+    let node = (0..model.nodes.len()).find(|&i| model.nodes.position[i][1] > 0.049).expect("a top skin node");
+    let springs = &model.springs;
+    let touching = |i: usize| -> Vec<usize> {
+        (0..springs.len()).filter(|&s| springs.a[s] as usize == i || springs.b[s] as usize == i).collect()
+    };
+    let mut freed = vec![node];
+    freed.extend(touching(node).into_iter().map(|s| (springs.a[s] + springs.b[s]) as usize - node));
+    let mut cut = 0;
+    for &i in &freed {
+        for s in touching(i) {
+            cut += usize::from(sim.cut_spring(s));
+        }
+    }
+    assert!(cut > freed.len(), "{cut} springs cut around {} nodes", freed.len());
+    assert_eq!(sim.cuts() as usize, cut);
+    let start = sim.state().x.get_f64(node);
+    for _ in 0..1000 {
+        sim.step();
+    }
+    let x = sim.state().x.get_f64(node);
+    assert!(x.iter().all(|c| c.is_finite()));
+    // No spring holds it and no gravity pulls it: it stays within 1 mm, its speed damped out.
+    let moved = ((x[0] - start[0]).powi(2) + (x[1] - start[1]).powi(2) + (x[2] - start[2]).powi(2)).sqrt();
+    assert!(moved < 1e-3, "moved {moved} m");
+    let v = sim.state().v.get_f64(node);
+    assert!(v.iter().all(|c| c.abs() < 1e-3), "{v:?}");
+}

@@ -3,7 +3,8 @@
 //! the tool sliding, only the stepping thread, as regions and their bulks are built on a thread
 //! of their own and the bulk's drops the ones replaced), on
 //! one thread and on two, with every effect on, through
-//! guard rollbacks, and with the pool's workers left idle long enough to park and be woken.
+//! guard rollbacks, with the pool's workers left idle long enough to park and be woken, and
+//! with the scalpel cutting.
 //! One busy thread per CPU spins beside the step throughout, so the solver's workers are
 //! preempted, park and wake as they do on a loaded machine.
 //!
@@ -172,7 +173,45 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
         assert_eq!(status.bulk_steps, 1010 / 4 + 1);
         assert_eq!(status.recentres >= 2, slide.is_some(), "{what}: {status:?}");
     }
+    scalpel_counted();
     drop(busy);
+}
+
+/// The scalpel on the living limb (`config/scenes/incision.toml`): entering point-first and
+/// drawn 3 cm through skin and fat over 1500 counted ticks, cutting springs and skin
+/// tetrahedra inside the tick; nothing is allocated on any thread.
+fn scalpel_counted() {
+    use lamina_core::hand_tool::HandTool;
+    use lamina_core::incision::{Blade, Scalpel};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenes/incision.toml");
+    let scene = Scene::load(&path).expect("the incision scene");
+    let model = scene.build_model().unwrap();
+    let tool = scene.tool.expect("a tool");
+    let (mut sim, _) = HandTool::simulation::<f32>(&model, scene.solver.clone(), scene.effects.clone(), tool).unwrap();
+    let mut scalpel = Scalpel::new(&model, &sim, &tool, scene.scalpel.expect("a [scalpel]")).unwrap();
+    let at = |y: f64, z: f64| Blade::from_pose([0.003, y, z], [0.0, 0.0, 0.0, 1.0], 0.015);
+    for _ in 0..10 {
+        scalpel.move_to(&mut sim, at(0.06, 0.1), 1e-3);
+        sim.step();
+    }
+    ON_LOOP_THREAD.with(|on| on.set(true));
+    COUNTING.store(true, Ordering::SeqCst);
+    for k in 0..1500 {
+        let (y, z) = if k < 500 {
+            (0.06 - 0.018 * f64::from(k) / 500.0, 0.1)
+        } else {
+            (0.042, 0.1 + 0.03 * f64::from(k - 500) / 1000.0)
+        };
+        scalpel.move_to(&mut sim, at(y, z), 1e-3);
+        sim.step();
+    }
+    COUNTING.store(false, Ordering::SeqCst);
+    ON_LOOP_THREAD.with(|on| on.set(false));
+    let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
+    LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst);
+    assert_eq!(n, 0, "the scalpel allocated {n} times");
+    assert!(sim.cuts() > 5, "the scalpel cut {} springs", sim.cuts());
+    assert!(sim.state().x.all_finite());
 }
 
 /// Ten warm-up frames, then 1000 counted ones with a NaN put into node `nan_node`'s velocity

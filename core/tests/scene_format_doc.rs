@@ -243,5 +243,5 @@ fn shipped_scenes_on_the_page_are_the_files_works() {
         Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         quoted += 1;
     }
-    assert_eq!(quoted, 7);
+    assert_eq!(quoted, 8);
 }

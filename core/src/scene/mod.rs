@@ -6,6 +6,7 @@ mod in_vivo;
 mod layered_block;
 mod model_section;
 mod realtime_section;
+mod scalpel_section;
 mod scene_file;
 mod section;
 mod solver_section;
@@ -21,6 +22,7 @@ pub use in_vivo::{
 pub use layered_block::{BlockSpec, LayerMaterial, layered_block};
 pub use model_section::ModelSource;
 pub use realtime_section::{MIN_NODE_FRAME_CUTOFF_US, OverrunChoice, RealtimeSettings, STANDBY_DELAY_US};
+pub use scalpel_section::{MAX_BLADE_LENGTH_M, MIN_BLADE_LENGTH_M};
 pub(crate) use scene_file::line_column;
 pub use scene_file::{DEFAULT_SCENE_TOML, Precision, Scene, SceneLoadError};
 pub use springs_section::{SceneSprings, fat_material};

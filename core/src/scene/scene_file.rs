@@ -7,6 +7,7 @@ use super::in_vivo::{InVivo, RawInVivo, in_vivo};
 use super::layered_block::layered_block;
 use super::model_section::{ModelSource, RawModel, model_source};
 use super::realtime_section::{RawRealtime, RealtimeSettings, realtime_settings};
+use super::scalpel_section::{RawScalpel, scalpel};
 use super::section::FieldError;
 use super::solver_section::{RawSolver, solver_parameters};
 use super::tool_settings::ToolSettings;
@@ -54,6 +55,8 @@ pub struct Scene {
     /// The living limb's skin pre-tension and muscle tone (`[in_vivo]`), applied when the
     /// model is built. Default: none.
     pub in_vivo: InVivo,
+    /// The scalpel the scene's tool can become (`[scalpel]`); `None` when the scene has none.
+    pub scalpel: Option<crate::incision::ScalpelSettings>,
     /// File the scene was read from (`None` for the built-in one).
     pub path: Option<PathBuf>,
 }
@@ -118,6 +121,7 @@ struct RawScene {
     realtime: RawRealtime,
     visual: Option<RawVisual>,
     in_vivo: Option<RawInVivo>,
+    scalpel: Option<RawScalpel>,
 }
 
 /// 1-based line and column of byte `offset` in `text` (for TOML errors).
@@ -212,6 +216,7 @@ impl Scene {
         let realtime = realtime_settings(raw.realtime).map_err(located)?;
         let visual = visual_section(raw.visual, base).map_err(located)?;
         let in_vivo = in_vivo(raw.in_vivo).map_err(located)?;
+        let scalpel = scalpel(raw.scalpel).map_err(located)?;
         let mut scene = Self {
             name: raw.name.unwrap_or_else(|| "unnamed".into()),
             rate_hz,
@@ -223,6 +228,7 @@ impl Scene {
             tool,
             visual,
             in_vivo,
+            scalpel,
             path: path.map(Path::to_path_buf),
         };
         if let Some(per_area) = scene.tool.and_then(|t| t.stiffness_per_area) {

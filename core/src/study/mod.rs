@@ -1,5 +1,5 @@
-//! Measuring the solver: accuracy against time, stability in hard cases, and the limb's
-//! indentation force against published tissue.
+//! Measuring the solver: accuracy against time, stability in hard cases, the limb's
+//! indentation force against published tissue, and how an incision gapes.
 //!
 //! Both studies are library code so that the `lamina study` commands and the tests run the
 //! very same cases.
@@ -7,6 +7,7 @@
 mod accuracy;
 mod coupling;
 mod energy;
+mod incision;
 mod indentation;
 mod reference;
 mod stability;
@@ -16,6 +17,7 @@ pub use accuracy::{
 };
 pub use coupling::{CouplingRow, coupling_sweep};
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
+pub use incision::{IncisionCase, IncisionError, IncisionResult, incision_study};
 pub use indentation::{
     IndentationCurve, IndentationError, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus,
     hertz_force, indentation, indentation_of_model,
