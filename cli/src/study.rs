@@ -472,12 +472,24 @@ pub fn incision(scene: &Path, length_mm: u32, depth_mm: u32, speed_mm_s: u32, ou
         lo * 1e3,
         hi * 1e3
     );
-    let (before, after) = r.residual_before_after;
+    let (before, old, new) = r.residuals;
     println!(
-        "PCG relative residual per tick: {before:.3} before the first cut, {after:.3} after the last (the old factor preconditions)"
+        "PCG relative residual per tick (mean): {before:.3} before the first cut, {old:.3} after a cut the factor lacks, {new:.3} with the factor of the cut model"
+    );
+    let f = r.refactor;
+    println!(
+        "factors of the cut model built off the loop: {} taken, each {} ticks after its ask; last build {:.1} ms, longest {:.1} ms",
+        f.taken,
+        lamina_core::study::INCISION_FACTOR_TICKS,
+        f.last_build_s * 1e3,
+        f.longest_build_s * 1e3
     );
     println!("compute per tick on this loop (unpinned):");
-    for (what, v) in [("ticks that cut", &r.tick_seconds_cutting), ("other ticks", &r.tick_seconds_other)] {
+    for (what, v) in [
+        ("ticks that cut", &r.tick_seconds_cutting),
+        ("taking a factor", &r.tick_seconds_taking),
+        ("other ticks", &r.tick_seconds_other),
+    ] {
         println!(
             "  {what:<16} {:>6} ticks   p50 {:>7.1} us   p99 {:>7.1} us   max {:>7.1} us",
             v.len(),

@@ -4,7 +4,7 @@
 //! of their own and the bulk's drops the ones replaced), on
 //! one thread and on two, with every effect on, through
 //! guard rollbacks, with the pool's workers left idle long enough to park and be woken, and
-//! with the scalpel cutting.
+//! with the scalpel cutting (the factors of the cut model built on a thread of their own).
 //! One busy thread per CPU spins beside the step throughout, so the solver's workers are
 //! preempted, park and wake as they do on a loaded machine.
 //!
@@ -189,6 +189,9 @@ fn scalpel_counted() {
     let tool = scene.tool.expect("a tool");
     let (mut sim, _) = HandTool::simulation::<f32>(&model, scene.solver.clone(), scene.effects.clone(), tool).unwrap();
     let mut scalpel = Scalpel::new(&model, &sim, &tool, scene.scalpel.expect("a [scalpel]")).unwrap();
+    // Factors of the cut model built on a thread of their own, each taken 50 ticks after it
+    // was asked for (the loop waits for it if need be): only this thread is counted.
+    sim.prepare_cutting(&model, lamina_core::solver::FactorSwap::AfterTicks(50)).unwrap();
     let at = |y: f64, z: f64| Blade::from_pose([0.003, y, z], [0.0, 0.0, 0.0, 1.0], 0.015);
     for _ in 0..10 {
         scalpel.move_to(&mut sim, at(0.06, 0.1), 1e-3);
@@ -207,10 +210,12 @@ fn scalpel_counted() {
     }
     COUNTING.store(false, Ordering::SeqCst);
     ON_LOOP_THREAD.with(|on| on.set(false));
-    let n = ALLOCATIONS.swap(0, Ordering::SeqCst);
-    LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst);
-    assert_eq!(n, 0, "the scalpel allocated {n} times");
+    ALLOCATIONS.swap(0, Ordering::SeqCst);
+    let n = LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst);
+    assert_eq!(n, 0, "the scalpel allocated {n} times on the stepping thread");
     assert!(sim.cuts() > 5, "the scalpel cut {} springs", sim.cuts());
+    let built = sim.refactor_status().unwrap();
+    assert!(built.taken >= 1 && built.cuts_in_factor > 0, "{built:?}");
     assert!(sim.state().x.all_finite());
 }
 

@@ -51,11 +51,26 @@ impl<T: Real> FactoredPreconditioner<T> {
         simd: SimdLevel,
         storage: FactorStorage,
     ) -> Result<Self, FactorBuildError> {
+        let inputs = PreconditionerInputs::of(dynamics);
+        Self::from_inputs(model, &inputs, cm, cc, ck, simd, storage)
+    }
+
+    /// [`FactoredPreconditioner::new`] from what it reads of the dynamics, which another
+    /// thread can hold (a factor of a cut model built off the loop).
+    pub(crate) fn from_inputs(
+        model: &Model,
+        inputs: &PreconditionerInputs,
+        cm: f64,
+        cc: f64,
+        ck: f64,
+        simd: SimdLevel,
+        storage: FactorStorage,
+    ) -> Result<Self, FactorBuildError> {
         let n = model.nodes.len();
         let mut row = vec![HELD; n];
         let mut m = 0u32;
         for (i, r) in row.iter_mut().enumerate() {
-            if dynamics.free[i] != T::ZERO {
+            if inputs.free[i] {
                 *r = m;
                 m += 1;
             }
@@ -79,7 +94,7 @@ impl<T: Real> FactoredPreconditioner<T> {
             }
         };
         let s = &model.springs;
-        let damping = dynamics.effects.spring_damping;
+        let damping = inputs.spring_damping;
         for i in 0..s.len() {
             let k = match s.law[i] {
                 SpringLaw::Linear { stiffness } => stiffness,
@@ -88,9 +103,12 @@ impl<T: Real> FactoredPreconditioner<T> {
             let c = if damping { s.damping[i] } else { 0.0 };
             tie(s.a[i], s.b[i], ck * k + cc * c);
         }
-        if let Some(k) = dynamics.effects.skin_volume {
-            let volume = &dynamics.skin_volume;
-            for (tet, &v0) in volume.tets.iter().zip(&volume.rest_volume) {
+        if let Some(k) = inputs.skin_volume_stiffness {
+            let volume = &inputs.skin_volume;
+            for (t, (tet, &v0)) in volume.tets.iter().zip(&volume.rest_volume).enumerate() {
+                if !volume.is_intact(t) {
+                    continue;
+                }
                 // The term's Gauss-Newton stiffness k/|V₀| ∇V ∇Vᵀ is bounded by
                 // k/|V₀| |∇V|² times the projector onto centred displacements: the isotropic
                 // centred Laplacian of that weight, which never underestimates it.
@@ -103,7 +121,7 @@ impl<T: Real> FactoredPreconditioner<T> {
                 }
             }
         }
-        for hd in &dynamics.effects.handles {
+        for hd in &inputs.handles {
             let r = row[hd.node as usize];
             if r != HELD {
                 diag[r as usize] += ck * hd.stiffness + cc * hd.damping;
@@ -116,7 +134,7 @@ impl<T: Real> FactoredPreconditioner<T> {
             *v *= inv_sqrt[*r as usize] * inv_sqrt[*c as usize];
         }
         lower.extend((0..m).map(|r| (r, r, 1.0)));
-        let factor = if dynamics.pool.threads() >= 2 {
+        let factor = if inputs.threads >= 2 {
             // Split at a plane across x, y or z, its two halves' sweeps on two threads.
             let keys = rest_coordinates(model, &row);
             CholeskyFactor::<T>::new_bisected(m as usize, &lower, &keys, simd, storage)?
@@ -164,6 +182,36 @@ impl<T: Real> FactoredPreconditioner<T> {
             } else {
                 (T::ZERO, T::ZERO, T::ZERO)
             };
+        }
+    }
+}
+
+/// What the preconditioner reads of a simulation's dynamics, owned.
+#[derive(Clone, Debug)]
+pub(crate) struct PreconditionerInputs {
+    /// Per node: whether it moves.
+    pub free: Vec<bool>,
+    /// Whether the springs' dashpots count.
+    pub spring_damping: bool,
+    /// The skin volume term's stiffness, Pa, when on.
+    pub skin_volume_stiffness: Option<f64>,
+    /// The skin's tetrahedra (a cut one has no volume term).
+    pub skin_volume: super::skin_volume::SkinVolume,
+    /// The drag handles.
+    pub handles: Vec<super::effects::DragHandle>,
+    /// Threads of the pool the sweeps run on.
+    pub threads: usize,
+}
+
+impl PreconditionerInputs {
+    pub(crate) fn of<T: Real>(dynamics: &Dynamics<T>) -> Self {
+        Self {
+            free: dynamics.free.iter().map(|f| *f != T::ZERO).collect(),
+            spring_damping: dynamics.effects.spring_damping,
+            skin_volume_stiffness: dynamics.effects.skin_volume,
+            skin_volume: dynamics.skin_volume.clone(),
+            handles: dynamics.effects.handles.clone(),
+            threads: dynamics.pool.threads(),
         }
     }
 }

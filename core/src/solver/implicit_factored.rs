@@ -255,6 +255,18 @@ impl<T: Real> ImplicitFactored<T> {
         dynamics.counters.cg_iterations += self.iterations as u64;
     }
 
+    /// Swaps the preconditioner with `other` (a factor of the cut model built off the loop).
+    /// Moves, allocates nothing.
+    pub(crate) fn swap_preconditioner(&mut self, other: &mut FactoredPreconditioner<T>) {
+        std::mem::swap(&mut self.pre, other);
+    }
+
+    /// `c_m`, `c_c`, `c_k` of the preconditioner's matrix `c_m M + c_c C + c_k K`.
+    pub(crate) fn preconditioner_coefficients(&self, viscous_damping: f64) -> (f64, f64, f64) {
+        let h = self.h;
+        ((1.0 + viscous_damping * h) / (h * h), 1.0 / h, 1.0)
+    }
+
     /// Cuts model spring `spring` out of the runs; its two nodes when it was in them and not
     /// cut before. Allocates nothing.
     pub(crate) fn cut_spring(&mut self, spring: usize) -> Option<[u32; 2]> {

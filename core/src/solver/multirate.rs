@@ -1010,7 +1010,7 @@ fn start_build<T: Real>(
 /// elsewhere a no-op). A thread spawned by the bulk's inherits its priority and its CPU, which
 /// the bulk keeps busy on a large model; at the lowest priority the builder takes only what
 /// the bulk and the loop leave idle on any CPU, and the loop's wake-up preempts it at once.
-fn lower_this_threads_priority() {
+pub(super) fn lower_this_threads_priority() {
     #[cfg(target_os = "linux")]
     // SAFETY: sysconf, sched_setscheduler and sched_setaffinity on the calling thread (pid 0)
     // with a valid parameter and a CPU set built by the libc macros.

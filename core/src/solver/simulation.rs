@@ -87,6 +87,8 @@ pub struct Simulation<T: Real> {
     multirate: Option<Multirate<T>>,
     /// Springs cut so far ([`Simulation::cut_spring`]).
     cuts: u64,
+    /// The builder of factors of the cut model ([`Simulation::prepare_cutting`]).
+    refactor: Option<super::refactor::Refactor<T>>,
 }
 
 /// Why a simulation cannot be cut.
@@ -98,6 +100,9 @@ pub enum CutError {
     /// The region and the bulk of a multirate simulation hold springs of their own.
     #[error("cutting a multirate simulation is not supported: step the scene single-rate (no [solver.multirate])")]
     Multirate,
+    /// The thread that factors the cut model did not start.
+    #[error("the thread that factors the cut model did not start")]
+    Thread,
 }
 
 /// The stiffest mode of `model` under `dynamics`' effects: the springs' (60 power
@@ -316,6 +321,7 @@ impl<T: Real> Simulation<T> {
             params,
             multirate: None,
             cuts: 0,
+            refactor: None,
         };
         sim.substeps_needed = sim.substeps_needed(sim.params.integrator);
         sim.substeps = sim.substeps_needed.clamp(1, u64::from(sim.params.max_substeps.max(1))) as u32;
@@ -526,9 +532,36 @@ impl<T: Real> Simulation<T> {
         let Some(solver) = &mut self.factored else { return false };
         let Some([a, b]) = solver.cut_spring(spring) else { return false };
         self.dynamics.skin_volume.remove_tets_with_edge(a, b);
+        if let Some(r) = &mut self.refactor {
+            r.record(spring);
+        }
         self.cuts += 1;
         self.verlet.valid_at = None;
         true
+    }
+
+    /// Starts the thread that factors the cut model's matrix off the loop for `model` (the
+    /// model this simulation was built from), taken as `swap` says. Without it a cut keeps the
+    /// first factor as the preconditioner for good. Call it before the loop: it spawns a
+    /// thread and copies the model.
+    ///
+    /// # Errors
+    /// [`CutError`] when the simulation cannot be cut or the thread does not start.
+    pub fn prepare_cutting(&mut self, model: &Model, swap: super::refactor::FactorSwap) -> Result<(), CutError> {
+        self.can_cut()?;
+        let Some(solver) = &self.factored else { return Err(CutError::Integrator(self.params.integrator)) };
+        let (cm, cc, ck) = solver.preconditioner_coefficients(self.dynamics.effects.viscous_damping.unwrap_or(0.0));
+        let recipe =
+            super::refactor::FactorRecipe { cm, cc, ck, simd: self.params.simd, storage: self.params.factor_storage };
+        let inputs = super::factored_preconditioner::PreconditionerInputs::of(&self.dynamics);
+        let refactor = super::refactor::Refactor::start(model, inputs, recipe, swap).map_err(|_| CutError::Thread)?;
+        self.refactor = Some(refactor);
+        Ok(())
+    }
+
+    /// What the off-loop factor builds have done (`None` without [`Simulation::prepare_cutting`]).
+    pub fn refactor_status(&self) -> Option<super::refactor::RefactorStatus> {
+        self.refactor.as_ref().map(|r| r.status())
     }
 
     /// Springs cut so far.
@@ -582,6 +615,9 @@ impl<T: Real> Simulation<T> {
     }
 
     fn step_inner(&mut self, stop: Option<&AtomicBool>) -> bool {
+        if let (Some(r), Some(solver)) = (&mut self.refactor, &mut self.factored) {
+            r.tick(solver);
+        }
         let Some(mut m) = self.multirate.take() else { return self.step_frame(stop) };
         m.take_region_nodes(&mut self.state);
         if m.exchange_due() {

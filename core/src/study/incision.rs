@@ -17,7 +17,11 @@ use crate::hand_tool::HandTool;
 use crate::incision::{Blade, BladeState, EdgeInTissue, Scalpel, ScalpelSettings};
 use crate::model::{Model, Tissue};
 use crate::scene::Scene;
-use crate::solver::{CutError, Simulation, SimulationBuildError};
+use crate::solver::{CutError, FactorSwap, RefactorStatus, Simulation, SimulationBuildError};
+
+/// Ticks after a cut at which the study takes the factor of the cut model (waiting for it if
+/// need be, so the study gives the same bits run to run).
+pub const INCISION_FACTOR_TICKS: u32 = 20;
 use std::time::Instant;
 
 /// The cut the study draws.
@@ -62,13 +66,18 @@ pub struct IncisionResult {
     pub skin_prestrain: f64,
     /// The closed form's opening at the middle for `ν` = 0 and 1/3, m.
     pub closed_form_gap_m: (f64, f64),
-    /// Mean relative PCG residual per tick before the first cut and after the last.
-    pub residual_before_after: (f64, f64),
+    /// Mean relative PCG residual per tick: before the first cut, after a cut with a factor
+    /// that lacks it, and with the factor of the model as cut.
+    pub residuals: (f64, f64, f64),
+    /// The off-loop factor builds (taken [`INCISION_FACTOR_TICKS`] ticks after each ask).
+    pub refactor: RefactorStatus,
     /// Compute time per tick of the ticks that cut and of the others, s (for the printout:
     /// the study's own loop, not a pinned real-time one).
     pub tick_seconds_cutting: Vec<f64>,
-    /// Compute time per tick of the ticks that did not cut, s.
+    /// Compute time per tick of the ticks that neither cut nor took a factor, s.
     pub tick_seconds_other: Vec<f64>,
+    /// Time of the ticks that took a factor of the cut model, s (waiting for its build).
+    pub tick_seconds_taking: Vec<f64>,
     /// Every node's final position, bit for bit (the study is deterministic).
     pub final_positions: Vec<[f64; 3]>,
     /// Whether every published state was finite.
@@ -118,6 +127,7 @@ pub fn incision_study(scene: &Scene, case: &IncisionCase) -> Result<IncisionResu
     let settings = scene.scalpel.unwrap_or_default();
     let (mut sim, _) = HandTool::simulation::<f64>(&model, scene.solver.clone(), scene.effects.clone(), tool)?;
     let mut scalpel = Scalpel::new(&model, &sim, &tool, settings)?;
+    sim.prepare_cutting(&model, FactorSwap::AfterTicks(INCISION_FACTOR_TICKS))?;
     run(&model, scene, &mut sim, &mut scalpel, &settings, case)
 }
 
@@ -172,20 +182,28 @@ fn run(
     leg((r_out, z0), (r_in, z0));
     leg((r_in, z0), (r_in, z1));
     leg((r_in, z1), (r_out, z1));
-    let (mut res_before, mut res_after) = (Vec::new(), Vec::new());
-    let (mut cutting, mut other) = (Vec::new(), Vec::new());
+    let (mut res_before, mut res_old, mut res_new) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut cutting, mut other, mut taking) = (Vec::new(), Vec::new(), Vec::new());
     for &(r, z) in &path {
+        let taken = sim.refactor_status().map_or(0, |r| r.taken);
         let start = Instant::now();
         let tick = scalpel.move_to(sim, blade_at(r, z), dt);
         step(sim);
         let seconds = start.elapsed().as_secs_f64();
         let residual = sim.implicit_factored().map_or(0.0, |f| f.last_residual());
-        if sim.cuts() == 0 {
-            res_before.push(residual);
-        } else if tick.springs_cut == 0 {
-            res_after.push(residual);
+        let in_factor = sim.refactor_status().map_or(0, |r| r.cuts_in_factor) as u64;
+        match sim.cuts() {
+            0 => res_before.push(residual),
+            n if n > in_factor => res_old.push(residual),
+            _ => res_new.push(residual),
         }
-        if tick.springs_cut > 0 { cutting.push(seconds) } else { other.push(seconds) }
+        if sim.refactor_status().map_or(0, |r| r.taken) > taken {
+            taking.push(seconds);
+        } else if tick.springs_cut > 0 {
+            cutting.push(seconds);
+        } else {
+            other.push(seconds);
+        }
     }
     scalpel.lift(sim);
     for _ in 0..ticks(case.settle_s) {
@@ -222,9 +240,11 @@ fn run(
         gaps,
         skin_prestrain: eps,
         closed_form_gap_m: (2.0 * case.length_m * eps, 3.0 * case.length_m * eps),
-        residual_before_after: (mean(&res_before), mean(&res_after)),
+        residuals: (mean(&res_before), mean(&res_old), mean(&res_new)),
+        refactor: sim.refactor_status().unwrap_or_default(),
         tick_seconds_cutting: cutting,
         tick_seconds_other: other,
+        tick_seconds_taking: taking,
         final_positions: x,
         finite: finite && scalpel.state() == BladeState::Outside,
     })

@@ -17,7 +17,7 @@ pub use accuracy::{
 };
 pub use coupling::{CouplingRow, coupling_sweep};
 pub use energy::{EnergyBreakdown, EnergyLedger, mechanical_energy};
-pub use incision::{IncisionCase, IncisionError, IncisionResult, incision_study};
+pub use incision::{INCISION_FACTOR_TICKS, IncisionCase, IncisionError, IncisionResult, incision_study};
 pub use indentation::{
     IndentationCurve, IndentationError, PUBLISHED_MODULI, PublishedModulus, TISSUE_POISSON, effective_modulus,
     hertz_force, indentation, indentation_of_model,
