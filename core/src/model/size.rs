@@ -96,9 +96,8 @@ impl ModelSize {
 
     /// Refuses `model_bytes() × factor` above the memory available, then counts beyond
     /// `u32` indices. `what` names the model in the error, e.g. `cylinder limb 4096x4096`.
-    /// The memory comes first: its message gives the estimate and the budget, which is what
-    /// a size too large for the indices is also too large for on any machine of less than
-    /// about 1.6 TB.
+    /// Memory comes first so that the message gives the estimate and the budget: a model
+    /// beyond the indices (4.3e9 nodes, about 1.6 TB to run) exceeds it on any smaller host.
     ///
     /// # Errors
     /// [`ModelSizeError`].
