@@ -65,6 +65,14 @@ impl RecordOptions {
     }
 }
 
+/// Refuses a ring of `slots` frames of `n` nodes (positions and velocities, 48 bytes a
+/// node) that exceeds the memory available, before it is allocated; the message gives both.
+fn check_ring_memory(n: usize, slots: usize) -> Result<(), String> {
+    let bytes = (n as u64).checked_mul(48).and_then(|b| b.checked_mul(slots as u64)).unwrap_or(u64::MAX);
+    lamina_input::check_memory(&format!("--record: a ring of {slots} frames of {n} nodes"), bytes)
+        .map_err(|e| e.to_string())
+}
+
 /// One recorded state: simulated time (s), positions (m) and velocities (m/s) per node.
 struct Frame {
     time: f64,
@@ -136,6 +144,7 @@ impl Recorder {
         let mut writer = VtuRecorder::create(model, &dir).map_err(|e| format!("--record {}: {e}", dir.display()))?;
         let n = model.nodes.len();
         let slots = (RING_BYTES / (48 * n).max(1)).clamp(MIN_SLOTS, MAX_SLOTS);
+        check_ring_memory(n, slots)?;
         let free = Arc::new(ArrayQueue::new(slots));
         let full: Arc<ArrayQueue<Box<Frame>>> = Arc::new(ArrayQueue::new(slots));
         for _ in 0..slots {
@@ -310,6 +319,21 @@ mod tests {
     use lamina_core::solver::Simulation;
     use std::alloc::{GlobalAlloc, Layout, System};
     use std::cell::Cell;
+
+    #[test]
+    fn record_ring_beyond_the_memory_budget_is_refused_fails() {
+        // 4 frames of 1e12 nodes: 1.92e14 bytes (175 TiB), more than any host's budget.
+        let e = check_ring_memory(1_000_000_000_000, 4).unwrap_err();
+        assert!(
+            e.starts_with("--record: a ring of 4 frames of 1000000000000 nodes needs about 174.62 TiB (192,000,000,000,000 bytes), more than the "),
+            "{e}"
+        );
+        // A count whose bytes overflow is refused, not wrapped.
+        let e = check_ring_memory(usize::MAX, 4).unwrap_err();
+        assert!(e.contains("needs more than 16 EiB"), "{e}");
+        // The default scene's ring fits.
+        assert!(check_ring_memory(2_769, MAX_SLOTS).is_ok());
+    }
 
     /// Counts the allocations of the thread that makes them (the test harness and the
     /// writer thread allocate on their own threads).

@@ -4,6 +4,7 @@ use super::bench_yardstick::{
     ChecksumRow, YardstickRow, c_checksum_row, c_name, checksum_row, implementations, time_c, time_config,
 };
 use super::machine;
+use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::solver::{SimdLevel, Simulation};
 use lamina_core::yardstick::{self, LatticeSize, ReferenceStepper};
@@ -27,6 +28,10 @@ pub struct BenchOptions {
 
 /// Runs the yardstick benchmark and prints a table (or JSON).
 pub fn bench(opts: &BenchOptions) -> Result<(), String> {
+    // Every size is estimated before any is built or timed.
+    for size in &opts.sizes {
+        size.check().map_err(|e| format!("--sizes {}: {e}", size.name()))?;
+    }
     let mut rows: Vec<YardstickRow> = Vec::new();
     let machine = machine::describe();
     if !opts.json {
@@ -140,17 +145,16 @@ fn print_row(row: &YardstickRow) {
     let _ = std::io::stdout().flush();
 }
 
-fn positions<T: Real>(size: LatticeSize, steps: usize, reference: bool, threads: usize) -> Vec<[f64; 3]> {
-    let model = yardstick::lattice_model(size);
+fn positions<T: Real>(model: &Model, steps: usize, reference: bool, threads: usize) -> Vec<[f64; 3]> {
     if reference {
-        let mut r = ReferenceStepper::<T>::new(&model, yardstick::GRAVITY, yardstick::DT).expect("linear springs");
+        let mut r = ReferenceStepper::<T>::new(model, yardstick::GRAVITY, yardstick::DT).expect("linear springs");
         for _ in 0..steps {
             r.step();
         }
         r.x.iter().map(|p| p.map(|c| c.to_f64())).collect()
     } else {
         let mut s = Simulation::<T>::new(
-            &model,
+            model,
             yardstick::lattice_params(threads, SimdLevel::detect()),
             yardstick::lattice_effects(),
         )
@@ -171,10 +175,14 @@ pub fn write_csv(
     threads: usize,
     out: &std::path::Path,
 ) -> Result<(), String> {
+    if !matches!(precision, "f32" | "f64") {
+        return Err(format!("unknown precision '{precision}' (f32 or f64)"));
+    }
+    // Estimated against the memory available before any of it is allocated.
+    let model = size.checked_model().map_err(|e| format!("--size {}: {e}", size.name()))?;
     let pos = match precision {
-        "f64" => positions::<f64>(size, steps, reference, threads),
-        "f32" => positions::<f32>(size, steps, reference, threads),
-        other => return Err(format!("unknown precision '{other}' (f32 or f64)")),
+        "f64" => positions::<f64>(&model, steps, reference, threads),
+        _ => positions::<f32>(&model, steps, reference, threads),
     };
     let mut text = String::with_capacity(pos.len() * 64);
     text.push_str("x_m,y_m,z_m\n");
@@ -183,7 +191,6 @@ pub fn write_csv(
         text.push_str(&format!("{},{},{}\n", p[0], p[1], p[2]));
     }
     std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))?;
-    let model = yardstick::lattice_model(size);
     let c = yardstick::checksum(&model, |i| pos[i]);
     tracing::info!(
         "wrote {} rows to {}; sum_u.y = {:.9e} m, max|u| = {:.6e} m, rms|u| = {:.6e} m",

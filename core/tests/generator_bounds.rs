@@ -64,12 +64,16 @@ fn cylinder_4096x4096_limb_is_refused_for_memory_works() {
 fn block_nx_nz_2_pow_32_is_refused_works() {
     // nx * nz * rows overflowed in the size check, which then passed.
     limit();
+    // Refused for memory first: the estimate overflows too (more than 16 EiB).
     let spec = BlockSpec { nx: 1 << 32, nz: 1 << 32, ..BlockSpec::default() };
     let e = spec.check_size().unwrap_err();
-    assert!(matches!(e, ModelSizeError::TooManyNodes { nodes: None, .. }), "{e}");
-    assert!(e.to_string().contains("more than 2^64 nodes"), "{e}");
+    let (needed, available) = memory_refusal(&e);
+    assert!(needed == u64::MAX && available <= BUDGET, "{e}");
+    let text = e.to_string();
+    assert!(text.contains("(more than 2^64 nodes, more than 2^64 springs) needs more than 16 EiB"), "{text}");
+    assert!(spec.checked_model().is_err(), "refused before building");
     let spec = BlockSpec { muscle_rows: usize::MAX, ..BlockSpec::default() };
-    assert!(matches!(spec.check_size(), Err(ModelSizeError::TooManyNodes { nodes: None, .. })));
+    assert_eq!(memory_refusal(&spec.check_size().unwrap_err()).0, u64::MAX);
 }
 
 #[test]
@@ -86,8 +90,10 @@ fn block_5e7_nodes_is_refused_for_memory_works() {
 #[test]
 fn yardstick_unbounded_size_is_refused_works() {
     limit();
-    let e = LatticeSize::parse("100000x100000x100000").unwrap().check().unwrap_err();
-    assert!(matches!(e, ModelSizeError::TooManyNodes { nodes: Some(1_000_000_000_000_000), .. }), "{e}");
+    let e = LatticeSize::parse("100000x100000x100000").unwrap().checked_model().unwrap_err();
+    let (needed, available) = memory_refusal(&e);
+    assert!(needed > 1_000_000_000_000_000 && available <= BUDGET, "{e}");
+    assert!(e.to_string().contains("(1000000000000000 nodes, "), "{e}");
     let e = LatticeSize::parse("2000x25x2000").unwrap().check().unwrap_err();
     assert!(e.to_string().starts_with("yardstick lattice 2000x25x2000 (100000000 nodes,"), "{e}");
     assert!(LatticeSize::LARGE.check().is_ok());

@@ -9,8 +9,8 @@
 //!   (a FIFO, `/dev/urandom` or `/dev/zero` is named as such), each format with its own size
 //!   cap ([`FileLimit`]);
 //! - [`memory`]: a size estimated in bytes is refused when it exceeds the memory available
-//!   (`MemAvailable` in `/proc/meminfo`, the cgroup's limit, or [`memory::LIMIT_ENV`]); the
-//!   error gives both numbers.
+//!   (the smallest of `MemAvailable` in `/proc/meminfo`, the cgroup's limit, `RLIMIT_AS` less
+//!   the process's virtual size, and [`memory::LIMIT_ENV`]); the error gives both numbers.
 //!
 //! # Examples
 //! ```

@@ -4,8 +4,14 @@
 //! 1. `MemAvailable` in `/proc/meminfo` (what the kernel can give without swapping);
 //! 2. the cgroup v2 limit of this process, `memory.max − memory.current`, when one is set
 //!    (containers and CI runners often have one far below the host's memory);
-//! 3. [`LIMIT_ENV`] (`LAMINA_MEMORY_LIMIT`, bytes), when set: a cap the user chooses;
-//! 4. [`set_process_limit`], when called: a cap the program (or a test) chooses.
+//! 3. the address-space limit `RLIMIT_AS` (`ulimit -v`, `prlimit --as`), when one is set,
+//!    minus the process's current virtual size (the first field of `/proc/self/statm`, in
+//!    pages): the kernel refuses any mapping that would take the virtual size past the
+//!    limit, so this is exactly what a new allocation may still map. Virtual size counts
+//!    reserved but untouched memory too (thread stacks, allocator arenas), which is why the
+//!    figure is the limit minus the virtual size and not minus the resident size;
+//! 4. [`LIMIT_ENV`] (`LAMINA_MEMORY_LIMIT`, bytes), when set: a cap the user chooses;
+//! 5. [`set_process_limit`], when called: a cap the program (or a test) chooses.
 //!
 //! Where none of them can be read (not Linux), the budget is unknown and every request
 //! passes; the size caps of the formats still apply.
@@ -46,6 +52,8 @@ pub enum MemorySource {
     MemAvailable,
     /// The cgroup's `memory.max` minus its `memory.current`.
     Cgroup,
+    /// `RLIMIT_AS` minus the process's virtual size.
+    AddressSpace,
     /// [`LIMIT_ENV`].
     Environment,
     /// [`set_process_limit`].
@@ -57,6 +65,7 @@ impl fmt::Display for MemorySource {
         f.write_str(match self {
             Self::MemAvailable => "MemAvailable in /proc/meminfo",
             Self::Cgroup => "the cgroup's memory.max minus memory.current",
+            Self::AddressSpace => "RLIMIT_AS minus this process's virtual size",
             Self::Environment => LIMIT_ENV,
             Self::Process => "the limit this program set",
         })
@@ -99,7 +108,8 @@ impl fmt::Display for MemoryCheckError {
         match self {
             Self::TooLarge { what, needed_bytes, available_bytes, source } => write!(
                 f,
-                "{what} needs about {}, more than the {} available ({source})",
+                "{what} needs {}{}, more than the {} available ({source})",
+                if *needed_bytes == u64::MAX { "" } else { "about " },
                 format_bytes(*needed_bytes),
                 format_bytes(*available_bytes)
             ),
@@ -160,6 +170,7 @@ pub fn memory_budget() -> Result<MemoryBudget, MemoryCheckError> {
     };
     offer(mem_available(Path::new("/proc/meminfo")), MemorySource::MemAvailable);
     offer(cgroup_available(), MemorySource::Cgroup);
+    offer(address_space_available(), MemorySource::AddressSpace);
     if let Some(value) = std::env::var_os(LIMIT_ENV) {
         let text = value.to_string_lossy().into_owned();
         match text.trim().parse::<u64>() {
@@ -217,6 +228,35 @@ fn cgroup_available() -> Option<u64> {
     Some(max.saturating_sub(current))
 }
 
+/// `RLIMIT_AS`'s soft limit minus this process's virtual size, bytes; `None` without a
+/// limit (`RLIM_INFINITY`) or where either cannot be read.
+fn address_space_available() -> Option<u64> {
+    let limit = address_space_limit()?;
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let virtual_bytes = parse_statm_size(&statm)?.checked_mul(page_size()?)?;
+    Some(limit.saturating_sub(virtual_bytes))
+}
+
+/// The soft `RLIMIT_AS`, bytes; `None` when unlimited.
+fn address_space_limit() -> Option<u64> {
+    let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: `getrlimit` writes one `rlimit` through a pointer to a live, aligned one.
+    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } == 0;
+    (ok && limit.rlim_cur != libc::RLIM_INFINITY).then_some(limit.rlim_cur)
+}
+
+/// Bytes per page.
+fn page_size() -> Option<u64> {
+    // SAFETY: `sysconf` reads a configuration value; it has no memory effects.
+    let size = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
+    u64::try_from(size).ok().filter(|&s| s > 0)
+}
+
+/// The total program size in pages: the first field of `/proc/self/statm`.
+fn parse_statm_size(text: &str) -> Option<u64> {
+    text.split_whitespace().next()?.parse().ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,6 +267,13 @@ mod tests {
         assert_eq!(parse_mem_available(text), Some(20_000_000 * 1024));
         assert_eq!(parse_mem_available("MemTotal: 5 kB\n"), None);
         assert_eq!(parse_mem_available("MemAvailable: 5 MB\n"), None);
+    }
+
+    #[test]
+    fn statm_size_parses_pages_works() {
+        assert_eq!(parse_statm_size("1048576 2000 300 40 0 5000 0\n"), Some(1_048_576));
+        assert_eq!(parse_statm_size(""), None);
+        assert_eq!(parse_statm_size("x 1 2"), None);
     }
 
     #[test]

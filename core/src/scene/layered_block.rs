@@ -134,6 +134,17 @@ impl BlockSpec {
         };
         size.check(&what, RUN_MEMORY_FACTOR)
     }
+
+    /// The block's model ([`layered_block`]) once [`check_size`](Self::check_size) has
+    /// passed: a block too large for the indices or for the memory available is refused
+    /// before any of it is allocated.
+    ///
+    /// # Errors
+    /// [`ModelSizeError`], naming the block's dimensions, the estimate and the budget.
+    pub fn checked_model(&self) -> Result<Model, ModelSizeError> {
+        self.check_size()?;
+        Ok(layered_block(self))
+    }
 }
 
 /// Layer indices of the block's model.
@@ -144,7 +155,8 @@ const SKIN: u16 = 3;
 
 /// Builds the block: node `(i, j, k)` at `(i, j, k) · spacing` with y up, index
 /// `(j·nz + k)·nx + i`; row 0 is bone (fixed). A spring belongs to the layer of its upper
-/// node's row. The top face is the `skin_outer` surface (a grid).
+/// node's row. The top face is the `skin_outer` surface (a grid). Sizes are not checked
+/// here: [`BlockSpec::checked_model`] refuses a block too large before building it.
 pub fn layered_block(spec: &BlockSpec) -> Model {
     let (nx, ny, nz) = (spec.nx, spec.rows(), spec.nz);
     let mut model = Model { name: "layered-block".into(), ..Model::default() };

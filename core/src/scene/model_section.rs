@@ -117,8 +117,17 @@ fn layered_block(raw: RawBlock) -> Result<BlockSpec, FieldError> {
         fat: raw.fat.unwrap_or(d.fat),
         muscle: raw.muscle.unwrap_or(d.muscle),
     };
-    if s.nx < 2 || s.nz < 2 || s.nx * s.nz * s.rows() > 50_000_000 {
-        return Err(FieldError::new("model", "nx and nz must be at least 2 and the block at most 5e7 nodes"));
+    if s.nx < 2 || s.nz < 2 {
+        return Err(FieldError::new("model", format!("nx {}, nz {}: each must be at least 2", s.nx, s.nz)));
+    }
+    // Counts without overflow, the estimate against the memory available (both in the
+    // message), before the block's fixed cap.
+    s.check_size().map_err(|e| FieldError::new("model", e.to_string()))?;
+    let nodes = s.nx.saturating_mul(s.nz).saturating_mul(s.rows());
+    if nodes > 50_000_000 {
+        let message =
+            format!("nx {}, nz {}, {} rows: {nodes} nodes, more than the 5e7 a block may have", s.nx, s.nz, s.rows());
+        return Err(FieldError::new("model", message));
     }
     if !(s.spacing.is_finite() && s.spacing > 0.0 && s.density.is_finite() && s.density > 0.0) {
         return Err(FieldError::new("model", "spacing and density must be finite and positive"));

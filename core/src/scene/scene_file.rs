@@ -4,7 +4,6 @@
 
 use super::effects_section::{RawEffects, effects};
 use super::in_vivo::{InVivo, RawInVivo, in_vivo};
-use super::layered_block::layered_block;
 use super::model_section::{ModelSource, RawModel, model_source};
 use super::realtime_section::{RawRealtime, RealtimeSettings, realtime_settings};
 use super::scalpel_section::{RawScalpel, scalpel};
@@ -14,7 +13,6 @@ use super::tool_settings::ToolSettings;
 use super::visual_section::{RawVisual, VisualSection, visual_section};
 use crate::model::{Model, NodeKind};
 use crate::solver::{Effects, IntegrationParameters};
-use crate::yardstick::lattice_model;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -276,8 +274,12 @@ impl Scene {
     pub fn build_generated_model(&self) -> Result<Model, SceneLoadError> {
         let file = self.path.clone().unwrap_or_else(|| PathBuf::from("<built-in default scene>"));
         let model = match &self.model {
-            ModelSource::LayeredBlock(spec) => layered_block(spec),
-            ModelSource::Yardstick(size) => lattice_model(*size),
+            ModelSource::LayeredBlock(spec) => spec
+                .checked_model()
+                .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?,
+            ModelSource::Yardstick(size) => size
+                .checked_model()
+                .map_err(|e| SceneLoadError::Model { path: file.clone(), message: e.to_string() })?,
             ModelSource::CylinderLimb { columns, rows, length, springs } => {
                 let spec = crate::generator::CylinderLimb {
                     grid: crate::generator::GridSize::new(*columns, *rows),

@@ -65,9 +65,10 @@ impl LatticeSize {
         }
     }
 
-    /// Number of nodes.
+    /// Number of nodes (saturating at `usize::MAX`: [`check`](Self::check) refuses such a
+    /// lattice).
     pub fn nodes(&self) -> usize {
-        self.nx * self.ny * self.nz
+        self.nx.saturating_mul(self.ny).saturating_mul(self.nz)
     }
 
     /// Node index of `(i, j, k)`: x fastest, then z, then y.
@@ -106,6 +107,17 @@ impl LatticeSize {
         lattice_model_size(self.nx as u64, self.ny as u64, self.nz as u64)
             .check(&format!("yardstick lattice {}", self.name()), RUN_MEMORY_FACTOR)
     }
+
+    /// The yardstick model ([`lattice_model`]) once [`check`](Self::check) has passed: a
+    /// lattice too large for the indices or for the memory available is refused before any
+    /// of it is allocated.
+    ///
+    /// # Errors
+    /// [`ModelSizeError`], naming the size, the estimate and the budget.
+    pub fn checked_model(&self) -> Result<Model, ModelSizeError> {
+        self.check()?;
+        Ok(lattice_model(*self))
+    }
 }
 
 /// Spring count by the specification's closed form.
@@ -116,7 +128,8 @@ pub fn spring_count(s: LatticeSize) -> usize {
 }
 
 /// The yardstick model: nodes in index order, springs in the specification's order.
-/// Layers: 0 muscle, 1 fat, 2 skin (by row, as the stiffness rule).
+/// Layers: 0 muscle, 1 fat, 2 skin (by row, as the stiffness rule). Sizes are not checked
+/// here: [`LatticeSize::checked_model`] refuses a lattice too large before building it.
 pub fn lattice_model(size: LatticeSize) -> Model {
     let mut model = Model { name: format!("yardstick-{}", size.name()), ..Model::default() };
     for (name, tissue) in [("muscle", Tissue::Muscle), ("fat", Tissue::Fat), ("skin", Tissue::Skin)] {
