@@ -57,4 +57,4 @@ pub use topology::{
     LayerRange, SurfaceTopology, TissueKind, Topology, TopologyDecodeError, TopologyEncodeError, VolumePathError,
     VolumeTopology,
 };
-pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand, WireTool};
+pub use wire::{ContactFeedback, NodesHeader, Percentiles, StatsSummary, ToolCommand, ToolKind, WireTool};

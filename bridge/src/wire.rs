@@ -278,30 +278,99 @@ impl TopologyHeader {
     }
 }
 
-/// Haptic tool pose and buttons (haptics → core), sent at the device rate. Newest wins.
+/// What a [`ToolCommand`] drives: the value of [`ToolCommand::kind`] on the wire.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum ToolKind {
+    /// The sphere tool (code 0): presses the skin, and grasps while button 0 is held.
+    #[default]
+    Sphere = 0,
+    /// The scalpel (code 1): its cutting edge runs from the tip along the tool's local +y
+    /// axis for the blade length, and cuts what the edge sweeps between two ticks.
+    Scalpel = 1,
+}
+
+impl ToolKind {
+    /// Every kind, in code order.
+    pub const ALL: [ToolKind; 2] = [ToolKind::Sphere, ToolKind::Scalpel];
+
+    /// The code sent in [`ToolCommand::kind`].
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// The kind of wire code `code`, or the code itself when no kind has it.
+    pub const fn from_code(code: u32) -> Result<Self, u32> {
+        match code {
+            0 => Ok(Self::Sphere),
+            1 => Ok(Self::Scalpel),
+            other => Err(other),
+        }
+    }
+
+    /// The kind's name as the command line and trajectory files write it: `sphere`, `scalpel`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Sphere => "sphere",
+            Self::Scalpel => "scalpel",
+        }
+    }
+
+    /// The kind named `text`: its name (`sphere`, `scalpel`) or its code (`0`, `1`).
+    pub fn parse(text: &str) -> Option<Self> {
+        let text = text.trim();
+        Self::ALL.into_iter().find(|k| text == k.name() || text.parse::<u32>().ok() == Some(k.code()))
+    }
+}
+
+impl core::fmt::Display for ToolKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Haptic tool pose, buttons and kind (haptics → core), sent at the device rate. Newest wins.
+///
+/// # Examples
+///
+/// ```
+/// use lamina_bridge::wire::{ToolCommand, ToolKind};
+///
+/// let cut = ToolCommand { kind: ToolKind::Scalpel.code(), blade_length_m: 0.01, ..ToolCommand::default() };
+/// assert_eq!(cut.kind(), Ok(ToolKind::Scalpel));
+/// // The cutting edge with identity orientation: straight up (+y) from the tip, 10 mm long.
+/// assert_eq!(cut.blade_end(0.01), [0.0, 0.01, 0.0]);
+/// let odd = ToolCommand { kind: 7, ..ToolCommand::default() };
+/// assert_eq!(odd.kind(), Err(7));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("LaminaToolCommandV1")]
+#[type_name("LaminaToolCommandV2")]
 pub struct ToolCommand {
     /// Counter of the sending haptics process, +1 per command.
     pub sequence: u64,
     /// `CLOCK_MONOTONIC` when the device was sampled, nanoseconds.
     pub time_ns: u64,
-    /// Tool tip position in the model frame, metres.
+    /// Tool tip position in the model frame, metres: the sphere's centre, or the scalpel's
+    /// tip (one end of its cutting edge).
     pub position: [f64; 3],
-    /// Tool orientation as a unit quaternion `[x, y, z, w]` (identity `[0, 0, 0, 1]`).
+    /// Tool orientation as a unit quaternion `[x, y, z, w]` (identity `[0, 0, 0, 1]`), model
+    /// frame. The scalpel's cutting edge is the tool's local +y axis rotated by it.
     pub orientation: [f64; 4],
     /// Button bit set: bit `i` set means button `i` is pressed.
     pub buttons: u32,
-    /// Always zero (explicit padding).
-    pub reserved: u32,
+    /// The tool, a [`ToolKind`] code: 0 sphere, 1 scalpel. Read it with [`ToolCommand::kind`];
+    /// the core refuses (counts and ignores) a command of any other code.
+    pub kind: u32,
     /// Radius of the spherical tool tip, metres; 0 uses the scene's. The core raises a radius
     /// below the scene's `effects.tool.min_radius` to it (its skin contact is sampled for it).
     pub tool_radius_m: f64,
+    /// Length of the scalpel's cutting edge, metres; 0 uses the scene's. Unused by the sphere.
+    pub blade_length_m: f64,
 }
 
 impl Default for ToolCommand {
-    /// At the origin, identity orientation, no buttons, radius 0.
+    /// A sphere at the origin, identity orientation, no buttons, radius and blade length 0.
     fn default() -> Self {
         Self {
             sequence: 0,
@@ -309,9 +378,35 @@ impl Default for ToolCommand {
             position: [0.0; 3],
             orientation: [0.0, 0.0, 0.0, 1.0],
             buttons: 0,
-            reserved: 0,
+            kind: ToolKind::Sphere.code(),
             tool_radius_m: 0.0,
+            blade_length_m: 0.0,
         }
+    }
+}
+
+impl ToolCommand {
+    /// The tool this command drives, or its code when it is none Lamina knows.
+    ///
+    /// # Errors
+    /// The unknown code (a client of a newer protocol, or a corrupt command).
+    pub const fn kind(&self) -> Result<ToolKind, u32> {
+        ToolKind::from_code(self.kind)
+    }
+
+    /// The far end of the scalpel's cutting edge for a blade `length_m` long (m, model frame):
+    /// `position + length_m · q ŷ q*` with `q` = [`ToolCommand::orientation`] normalised (the
+    /// tip itself when the quaternion has no length). The edge is the segment from
+    /// [`ToolCommand::position`] to this point.
+    pub fn blade_end(&self, length_m: f64) -> [f64; 3] {
+        let [x, y, z, w] = self.orientation;
+        let n2 = x * x + y * y + z * z + w * w;
+        if n2 <= 0.0 || !n2.is_finite() {
+            return self.position;
+        }
+        // The rotation matrix's second column, divided by |q|².
+        let axis = [2.0 * (x * y - w * z) / n2, 1.0 - 2.0 * (x * x + z * z) / n2, 2.0 * (y * z + w * x) / n2];
+        [0, 1, 2].map(|c| self.position[c] + length_m * axis[c])
     }
 }
 
@@ -486,7 +581,10 @@ pub fn layouts() -> Vec<TypeLayout> {
                 volume
             ]
         ),
-        type_layout!(ToolCommand, [sequence, time_ns, position, orientation, buttons, reserved, tool_radius_m]),
+        type_layout!(
+            ToolCommand,
+            [sequence, time_ns, position, orientation, buttons, kind, tool_radius_m, blade_length_m]
+        ),
         type_layout!(ContactFeedback, [sequence, tick, publish_time_ns, in_contact, reserved, force, stiffness, x_ref]),
         type_layout!(Percentiles, [p50_ns, p99_ns, p999_ns, max_ns]),
         type_layout!(StatsSummary, [sequence, publish_time_ns, ticks, misses, lateness, compute, period, worst_tick]),

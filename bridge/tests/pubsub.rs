@@ -6,7 +6,7 @@ use core::time::Duration;
 use lamina_bridge::{
     Bridge, BridgeConfig, BridgeOpenError, ContactFeedback, FeedbackPublisher, FeedbackSubscriber, LayerRange,
     NodeChanges, NodesPublishError, NodesPublisher, NodesSubscriber, StatsPublisher, StatsSubscriber, StatsSummary,
-    TissueKind, ToolCommand, ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
+    TissueKind, ToolCommand, ToolKind, ToolPublisher, ToolSubscriber, Topology, TopologyPublisher, TopologySubscriber,
 };
 
 /// Watchdog for waits that must succeed; it bounds a hang, it is not a timing requirement.
@@ -271,7 +271,9 @@ fn tool_late_joiner_works() {
             sequence: seq,
             position: [0.01 * seq as f64, 0.0, 0.0],
             buttons: 1,
+            kind: ToolKind::Scalpel.code(),
             tool_radius_m: 0.002,
+            blade_length_m: 0.015,
             ..ToolCommand::default()
         };
         publisher.publish(&tool).unwrap();
@@ -282,6 +284,7 @@ fn tool_late_joiner_works() {
     assert_eq!(got.message().sequence, 4);
     assert_eq!(got.message().orientation, [0.0, 0.0, 0.0, 1.0]);
     assert_eq!(got.message().tool_radius_m, 0.002);
+    assert_eq!((got.message().kind(), got.message().blade_length_m), (Ok(ToolKind::Scalpel), 0.015));
 }
 
 #[test]

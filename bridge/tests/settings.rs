@@ -3,6 +3,7 @@
 //! Lamina needs. Also pins the wire types' sizes, which clients in other languages declare
 //! by hand (python/lamina/wire.py).
 
+use iceoryx2::prelude::ZeroCopySend;
 use lamina_bridge::services::{NODES_BUFFER_SIZE, PubSubSettings};
 use lamina_bridge::wire::{NodesHeader, TopologyHeader, WireLayer};
 use lamina_bridge::{
@@ -178,4 +179,73 @@ fn wire_type_sizes_match_the_python_clients_works() {
     for (name, size) in rust {
         assert_eq!(python.get(name), Some(&size), "{name}: python/lamina/wire.py against the Rust type");
     }
+}
+
+/// `ToolCommand` as protocol version 1 declared it (88 bytes: `reserved` where `kind` is, no
+/// blade length), what a client built for that version registers.
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[repr(C)]
+#[type_name("LaminaToolCommandV1")]
+struct ToolCommandV1 {
+    sequence: u64,
+    time_ns: u64,
+    position: [f64; 3],
+    orientation: [f64; 4],
+    buttons: u32,
+    reserved: u32,
+    tool_radius_m: f64,
+}
+
+#[test]
+fn tool_created_by_a_version_1_client_is_refused_naming_both_types_works() {
+    let b = bridge("tool_v1_first");
+    // A version-1 client came first and created `tool` with Lamina's settings.
+    let _held = b
+        .node()
+        .service_builder(&b.names().tool)
+        .publish_subscribe::<ToolCommandV1>()
+        .enable_safe_overflow(true)
+        .history_size(1)
+        .subscriber_max_buffer_size(4)
+        .subscriber_max_borrowed_samples(2)
+        .max_publishers(2)
+        .max_subscribers(8)
+        .max_nodes(20)
+        .create()
+        .unwrap();
+    let err = ToolSubscriber::create(&b).unwrap_err();
+    let (_, service, found) = mismatches(&err);
+    assert_eq!(service, b.names().tool.as_str());
+    assert_eq!(
+        found,
+        [mismatch(
+            "payload type",
+            "'LaminaToolCommandV1' (size 88, alignment 8)",
+            "'LaminaToolCommandV2' (size 96, alignment 8)"
+        )]
+    );
+}
+
+#[test]
+fn version_1_client_opening_the_tool_service_is_refused_works() {
+    use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError};
+    let b = bridge("tool_v1_second");
+    let _core = ToolSubscriber::create(&b).unwrap();
+    // A version-1 client after the core: iceoryx2 refuses the type before any byte is read.
+    let open = b.node().service_builder(&b.names().tool).publish_subscribe::<ToolCommandV1>().open();
+    assert_eq!(open.err(), Some(PublishSubscribeOpenError::IncompatibleTypes));
+    let open_or_create = b
+        .node()
+        .service_builder(&b.names().tool)
+        .publish_subscribe::<ToolCommandV1>()
+        .enable_safe_overflow(true)
+        .history_size(1)
+        .subscriber_max_buffer_size(4)
+        .open_or_create();
+    assert_eq!(
+        open_or_create.err(),
+        Some(PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
+            PublishSubscribeOpenError::IncompatibleTypes
+        ))
+    );
 }

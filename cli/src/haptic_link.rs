@@ -6,12 +6,13 @@
 //! The tool itself (press, grasp while button 0 is held, release) is the physics library's
 //! [`HandTool`]; this module maps commands onto it and its feedback onto the wire.
 //!
-//! Bad commands (non-finite pose or radius, positions beyond 1 km) are counted and ignored:
-//! the tool stays where the last good command put it. Commands older than the scene's
+//! Bad commands (non-finite pose, radius or blade length, positions beyond 1 km, a tool kind
+//! other than sphere or scalpel) are counted and ignored: the tool stays where the last good
+//! command put it. A scalpel command is counted and keeps the sphere parked (no contact). Commands older than the scene's
 //! `timeout_ms` park the tool (out of the loop, zero force) until the haptics process is back.
 //! Nothing here allocates after [`HapticLink::attach`].
 
-use lamina_bridge::wire::{ContactFeedback, ToolCommand};
+use lamina_bridge::wire::{ContactFeedback, ToolCommand, ToolKind};
 use lamina_bridge::{Bridge, FeedbackPublisher, ToolSubscriber, now_ns};
 use lamina_core::hand_tool::HandTool;
 use lamina_core::real::Real;
@@ -26,8 +27,12 @@ const MAX_COORDINATE_M: f64 = 1e3;
 pub struct HapticLinkCounts {
     /// Tool commands applied.
     pub commands: u64,
-    /// Tool commands refused (non-finite or implausible).
+    /// Tool commands refused (non-finite or implausible), unknown kinds included.
     pub bad_commands: u64,
+    /// Of `bad_commands`: commands of a tool kind that is neither sphere nor scalpel.
+    pub unknown_kinds: u64,
+    /// Scalpel commands applied (the sphere stays parked while they come).
+    pub scalpel_commands: u64,
     /// Commands whose radius was below the scene's `min_radius` and was raised to it.
     pub radius_raised: u64,
     /// Times the tool was parked because commands stopped.
@@ -59,6 +64,8 @@ fn command_is_sane(c: &ToolCommand) -> bool {
     c.position.iter().all(|p| p.is_finite() && p.abs() < MAX_COORDINATE_M)
         && c.tool_radius_m.is_finite()
         && (0.0..1.0).contains(&c.tool_radius_m)
+        && c.blade_length_m.is_finite()
+        && (0.0..1.0).contains(&c.blade_length_m)
 }
 
 impl HapticLink {
@@ -91,22 +98,33 @@ impl HapticLink {
         match self.tool.latest() {
             Ok(Some(sample)) => {
                 let c = *sample.message();
-                if command_is_sane(&c) {
-                    // Button 0 grasps at the commanded centre; letting it go releases, and the
-                    // sphere presses again.
-                    let grasping = c.buttons & 1 != 0;
-                    if !grasping {
-                        hand.release(sim);
+                match c.kind() {
+                    _ if !command_is_sane(&c) => self.counts.bad_commands += 1,
+                    Err(_) => {
+                        self.counts.unknown_kinds += 1;
+                        self.counts.bad_commands += 1;
                     }
-                    let raised = hand.move_to(sim, c.position, Some(c.tool_radius_m));
-                    if grasping && !hand.is_grasping() && hand.grasp(sim) > 0 {
-                        self.counts.grasps += 1;
+                    Ok(ToolKind::Scalpel) => {
+                        // The sphere is out of the loop while the scalpel is in the hand.
+                        hand.park(sim);
+                        self.last_command_ns = Some(now);
+                        self.counts.scalpel_commands += 1;
                     }
-                    self.counts.radius_raised += u64::from(raised);
-                    self.last_command_ns = Some(now);
-                    self.counts.commands += 1;
-                } else {
-                    self.counts.bad_commands += 1;
+                    Ok(ToolKind::Sphere) => {
+                        // Button 0 grasps at the commanded centre; letting it go releases, and
+                        // the sphere presses again.
+                        let grasping = c.buttons & 1 != 0;
+                        if !grasping {
+                            hand.release(sim);
+                        }
+                        let raised = hand.move_to(sim, c.position, Some(c.tool_radius_m));
+                        if grasping && !hand.is_grasping() && hand.grasp(sim) > 0 {
+                            self.counts.grasps += 1;
+                        }
+                        self.counts.radius_raised += u64::from(raised);
+                        self.last_command_ns = Some(now);
+                        self.counts.commands += 1;
+                    }
                 }
             }
             Ok(None) => {}

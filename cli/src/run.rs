@@ -690,8 +690,17 @@ fn print_physics<T: Real>(
         if let Some(h) = &p.haptic {
             let c = h.counts;
             println!(
-                "haptic link: {} tool commands applied, {} refused (non-finite or implausible), {} with a radius raised to the scene's min_radius, parked {} time(s), {} grasp(s), {} feedback messages ({} non-finite replaced by no-contact), {} port failures",
-                c.commands, c.bad_commands, c.radius_raised, c.parked, c.grasps, c.feedback, c.bad_feedback, c.failures
+                "haptic link: {} tool commands applied, {} refused (non-finite or implausible; {} of an unknown tool kind), {} scalpel commands (sphere parked), {} with a radius raised to the scene's min_radius, parked {} time(s), {} grasp(s), {} feedback messages ({} non-finite replaced by no-contact), {} port failures",
+                c.commands,
+                c.bad_commands,
+                c.unknown_kinds,
+                c.scalpel_commands,
+                c.radius_raised,
+                c.parked,
+                c.grasps,
+                c.feedback,
+                c.bad_feedback,
+                c.failures
             );
         }
     }

@@ -28,7 +28,16 @@
 // The version of this ABI: the layout of every struct and the meaning of every call. A
 // program compares `lamina_abi_version` with the value of the header it was
 // compiled with.
-#define LAMINA_ABI_VERSION 1
+#define LAMINA_ABI_VERSION 2
+
+// `LaminaToolCommand::kind` of the sphere: it presses the skin, and grasps while button 0
+// is held.
+#define LAMINA_TOOL_SPHERE 0
+
+// `LaminaToolCommand::kind` of the scalpel: its cutting edge runs from the tip along the
+// tool's local +y axis, rotated by the orientation, for the blade length, and cuts what the
+// edge sweeps between two core ticks.
+#define LAMINA_TOOL_SCALPEL 1
 
 // What a call did. Every call but the text getters returns one; on anything but
 // `LAMINA_STATUS_OK`, `lamina_last_error_message()` says what went wrong, naming the
@@ -177,19 +186,23 @@ typedef struct LaminaFrameInfo {
   uint32_t reserved;
 } LaminaFrameInfo;
 
-// A tool command: where the sphere's centre goes, in the model frame.
+// A tool command: which tool, and where it goes, in the model frame.
 typedef struct LaminaToolCommand {
-  // Sphere centre, model frame, m; each coordinate finite and below 1000 m in magnitude.
+  // Sphere centre or scalpel tip, model frame, m; each coordinate finite and below 1000 m
+  // in magnitude.
   double position[3];
-  // Orientation as a unit quaternion `[x, y, z, w]` (identity `[0, 0, 0, 1]`; the sphere
-  // does not use it).
+  // Orientation as a unit quaternion `[x, y, z, w]`, model frame (identity `[0, 0, 0, 1]`;
+  // the sphere does not use it, the scalpel's edge is the tool's +y axis turned by it).
   double orientation[4];
   // Sphere radius, m, `0 <= r < 1`; 0 uses the scene's.
   double radius_m;
   // Buttons: bit 0 held grasps the nodes near the sphere; the other bits are not used.
   uint32_t buttons;
-  // Always zero (explicit padding).
-  uint32_t reserved;
+  // The tool: `LAMINA_TOOL_SPHERE` (0) or `LAMINA_TOOL_SCALPEL` (1); others are refused.
+  uint32_t kind;
+  // Length of the scalpel's cutting edge, m, `0 <= l < 1`; 0 uses the scene's. The sphere
+  // does not use it.
+  double blade_length_m;
 } LaminaToolCommand;
 
 // The contact force and its local linear model: `F(x) = force + stiffness · (x − x_ref)`.
@@ -345,7 +358,9 @@ LaminaStatus lamina_latest_frame(LaminaClient client,
 
 // Sends `*command` on the core's `tool` service. Refused before sending
 // (`LAMINA_STATUS_INVALID_ARGUMENT`): a position coordinate not finite or at or beyond
-// 1000 m in magnitude (the bound is per coordinate), a radius outside `0 <= r < 1` m.
+// 1000 m in magnitude (the bound is per coordinate), a radius or blade length outside
+// `0 <= r < 1` m, an orientation not finite, a `kind` other than `LAMINA_TOOL_SPHERE` and
+// `LAMINA_TOOL_SCALPEL`, a scalpel whose orientation is all zeros.
 // `LAMINA_STATUS_NO_TOOL` when the scene's tool does not follow commands. The core takes
 // the newest command each tick and parks the tool (zero force) when none came for the
 // scene's `timeout_ms` (100 ms by default): send at least every 100 ms.
@@ -362,6 +377,18 @@ LaminaStatus lamina_send_sphere(LaminaClient client,
                                 double y,
                                 double z,
                                 double radius_m);
+
+// Holds the scalpel with its tip at `(x, y, z)` (m, model frame) and its cutting edge
+// `blade_length_m` long (0: the scene's) straight up from the tip (model +y, the identity
+// orientation: across the skin of Lamina's limbs from above while the tip is below it). The
+// blade cuts what its edge sweeps between two core ticks. For an edge turned another way,
+// `lamina_send_tool` with `kind` `LAMINA_TOOL_SCALPEL` and an orientation. As
+// `lamina_send_tool`.
+LaminaStatus lamina_send_scalpel(LaminaClient client,
+                                 double x,
+                                 double y,
+                                 double z,
+                                 double blade_length_m);
 
 // As `lamina_send_sphere`, with the grasp button: `closed` 1 holds the free nodes within
 // 1.25 radii of the centre, 0 lets them go. Other values of `closed` are refused.

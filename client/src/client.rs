@@ -9,7 +9,7 @@ use iceoryx2::service::port_factory::PortFactory as _;
 use lamina_bridge::services::{NodesService, open_nodes_service};
 use lamina_bridge::{
     Bridge, BridgeConfig, BridgeOpenError, FeedbackSubscriber, NodesSample, NodesSubscriber, SampleReceiveError,
-    ToolCommand, ToolPublisher, Topology, TopologySubscriber, now_ns,
+    ToolCommand, ToolKind, ToolPublisher, Topology, TopologySubscriber, now_ns,
 };
 
 use crate::failure::Failure;
@@ -336,6 +336,16 @@ impl Client {
         if !(r.is_finite() && (0.0..RADIUS_BOUND_M).contains(&r)) {
             return bad(format!("radius {r} m is outside 0 <= r < {RADIUS_BOUND_M} m"));
         }
+        let Ok(kind) = ToolKind::from_code(command.kind) else {
+            return bad(format!("kind {} is no tool (0: LAMINA_TOOL_SPHERE, 1: LAMINA_TOOL_SCALPEL)", command.kind));
+        };
+        let blade = command.blade_length_m;
+        if !(blade.is_finite() && (0.0..RADIUS_BOUND_M).contains(&blade)) {
+            return bad(format!("blade length {blade} m is outside 0 <= l < {RADIUS_BOUND_M} m"));
+        }
+        if kind == ToolKind::Scalpel && command.orientation.iter().all(|&q| q == 0.0) {
+            return bad("orientation [0, 0, 0, 0] turns the scalpel's edge nowhere: give a unit quaternion (identity [0, 0, 0, 1]: the edge straight up)".into());
+        }
         if self.topology.tool.source != TOOL_SOURCE_COMMANDS {
             return Err(Failure::new(
                 LaminaStatus::NoTool,
@@ -360,8 +370,9 @@ impl Client {
             position: command.position,
             orientation: command.orientation,
             buttons: command.buttons,
-            reserved: 0,
+            kind: kind.code(),
             tool_radius_m: r,
+            blade_length_m: blade,
         };
         if let Some(tool) = &self.tool {
             tool.publish_polled(&message).map_err(|e| {

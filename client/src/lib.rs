@@ -10,7 +10,7 @@
 //! 3. [`lamina_next_frame`] (every frame, in order) or [`lamina_latest_frame`] (the newest)
 //!    copies a node frame into the caller's buffer: **one copy**, from the core's shared
 //!    memory straight into the buffer, and the core's chunk is returned before the call ends.
-//! 4. [`lamina_send_sphere`], [`lamina_send_grasp`] or [`lamina_send_tool`] move the tool;
+//! 4. [`lamina_send_sphere`], [`lamina_send_grasp`], [`lamina_send_scalpel`] or [`lamina_send_tool`] move the tool;
 //!    [`lamina_latest_feedback`] reads the contact force.
 //! 5. [`lamina_close`].
 //!
@@ -359,7 +359,9 @@ pub unsafe extern "C" fn lamina_latest_frame(
 
 /// Sends `*command` on the core's `tool` service. Refused before sending
 /// (`LAMINA_STATUS_INVALID_ARGUMENT`): a position coordinate not finite or at or beyond
-/// 1000 m in magnitude (the bound is per coordinate), a radius outside `0 <= r < 1` m.
+/// 1000 m in magnitude (the bound is per coordinate), a radius or blade length outside
+/// `0 <= r < 1` m, an orientation not finite, a `kind` other than `LAMINA_TOOL_SPHERE` and
+/// `LAMINA_TOOL_SCALPEL`, a scalpel whose orientation is all zeros.
 /// `LAMINA_STATUS_NO_TOOL` when the scene's tool does not follow commands. The core takes
 /// the newest command each tick and parks the tool (zero force) when none came for the
 /// scene's `timeout_ms` (100 ms by default): send at least every 100 ms.
@@ -382,6 +384,30 @@ pub unsafe extern "C" fn lamina_send_tool(client: LaminaClient, command: *const 
 pub extern "C" fn lamina_send_sphere(client: LaminaClient, x: f64, y: f64, z: f64, radius_m: f64) -> LaminaStatus {
     const F: &str = "lamina_send_sphere";
     let command = LaminaToolCommand { position: [x, y, z], radius_m, ..LaminaToolCommand::default() };
+    guard(F, || handles::with(F, client, |c| c.send_tool(F, &command)))
+}
+
+/// Holds the scalpel with its tip at `(x, y, z)` (m, model frame) and its cutting edge
+/// `blade_length_m` long (0: the scene's) straight up from the tip (model +y, the identity
+/// orientation: across the skin of Lamina's limbs from above while the tip is below it). The
+/// blade cuts what its edge sweeps between two core ticks. For an edge turned another way,
+/// `lamina_send_tool` with `kind` `LAMINA_TOOL_SCALPEL` and an orientation. As
+/// `lamina_send_tool`.
+#[unsafe(no_mangle)]
+pub extern "C" fn lamina_send_scalpel(
+    client: LaminaClient,
+    x: f64,
+    y: f64,
+    z: f64,
+    blade_length_m: f64,
+) -> LaminaStatus {
+    const F: &str = "lamina_send_scalpel";
+    let command = LaminaToolCommand {
+        position: [x, y, z],
+        kind: LAMINA_TOOL_SCALPEL,
+        blade_length_m,
+        ..LaminaToolCommand::default()
+    };
     guard(F, || handles::with(F, client, |c| c.send_tool(F, &command)))
 }
 

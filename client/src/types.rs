@@ -14,7 +14,7 @@ pub const LAMINA_MODEL_NAME_LEN: usize = 65;
 /// The version of this ABI: the layout of every struct and the meaning of every call. A
 /// program compares `lamina_abi_version` with the value of the header it was
 /// compiled with.
-pub const LAMINA_ABI_VERSION: u32 = 1;
+pub const LAMINA_ABI_VERSION: u32 = 2;
 
 /// A connection to one Lamina core, as `lamina_open` gives it. 0 is never a valid
 /// handle. A handle is used on the thread that opened it; after `lamina_close` it is
@@ -192,26 +192,47 @@ pub struct LaminaFrameInfo {
     pub reserved: u32,
 }
 
-/// A tool command: where the sphere's centre goes, in the model frame.
+/// `LaminaToolCommand::kind` of the sphere: it presses the skin, and grasps while button 0
+/// is held.
+pub const LAMINA_TOOL_SPHERE: u32 = 0;
+
+/// `LaminaToolCommand::kind` of the scalpel: its cutting edge runs from the tip along the
+/// tool's local +y axis, rotated by the orientation, for the blade length, and cuts what the
+/// edge sweeps between two core ticks.
+pub const LAMINA_TOOL_SCALPEL: u32 = 1;
+
+/// A tool command: which tool, and where it goes, in the model frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C)]
 pub struct LaminaToolCommand {
-    /// Sphere centre, model frame, m; each coordinate finite and below 1000 m in magnitude.
+    /// Sphere centre or scalpel tip, model frame, m; each coordinate finite and below 1000 m
+    /// in magnitude.
     pub position: [f64; 3],
-    /// Orientation as a unit quaternion `[x, y, z, w]` (identity `[0, 0, 0, 1]`; the sphere
-    /// does not use it).
+    /// Orientation as a unit quaternion `[x, y, z, w]`, model frame (identity `[0, 0, 0, 1]`;
+    /// the sphere does not use it, the scalpel's edge is the tool's +y axis turned by it).
     pub orientation: [f64; 4],
     /// Sphere radius, m, `0 <= r < 1`; 0 uses the scene's.
     pub radius_m: f64,
     /// Buttons: bit 0 held grasps the nodes near the sphere; the other bits are not used.
     pub buttons: u32,
-    /// Always zero (explicit padding).
-    pub reserved: u32,
+    /// The tool: `LAMINA_TOOL_SPHERE` (0) or `LAMINA_TOOL_SCALPEL` (1); others are refused.
+    pub kind: u32,
+    /// Length of the scalpel's cutting edge, m, `0 <= l < 1`; 0 uses the scene's. The sphere
+    /// does not use it.
+    pub blade_length_m: f64,
 }
 
 impl Default for LaminaToolCommand {
+    /// The sphere at the origin, identity orientation, radius and blade length 0.
     fn default() -> Self {
-        Self { position: [0.0; 3], orientation: [0.0, 0.0, 0.0, 1.0], radius_m: 0.0, buttons: 0, reserved: 0 }
+        Self {
+            position: [0.0; 3],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            radius_m: 0.0,
+            buttons: 0,
+            kind: LAMINA_TOOL_SPHERE,
+            blade_length_m: 0.0,
+        }
     }
 }
 

@@ -175,6 +175,7 @@ fn bad_handles_are_refused_by_every_call_works() {
                 lamina_send_tool(handle, &command),
                 lamina_send_sphere(handle, 0.0, 0.0, 0.0, 0.0),
                 lamina_send_grasp(handle, 0.0, 0.0, 0.0, 0.0, 1),
+                lamina_send_scalpel(handle, 0.0, 0.0, 0.0, 0.01),
                 lamina_latest_feedback(handle, 1, &mut feedback),
                 lamina_close(handle),
             ]
@@ -312,5 +313,72 @@ fn a_scene_without_a_commanded_tool_refuses_tool_commands_works() {
     let s = unsafe { lamina_next_frame(client, 10, core::ptr::null_mut(), 6, &mut LaminaFrameInfo::default()) };
     assert_eq!(s, LaminaStatus::NullPointer);
     assert_eq!(message(), "lamina_next_frame: positions is NULL");
+    assert_eq!(lamina_close(client), LaminaStatus::Ok);
+}
+
+#[test]
+fn scalpel_commands_reach_the_core_as_sent_works() {
+    // The C struct as the header lays it out: the wire's kind after the buttons, the blade
+    // length last (ABI version 2).
+    assert_eq!(LAMINA_ABI_VERSION, 2);
+    assert_eq!(
+        (core::mem::offset_of!(LaminaToolCommand, kind), core::mem::offset_of!(LaminaToolCommand, blade_length_m)),
+        (68, 72)
+    );
+    assert_eq!(core::mem::size_of::<LaminaToolCommand>(), 80);
+    let prefix = unique("scalpel");
+    let _core = FakeCore::start(&prefix, small_topology(2));
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).unwrap();
+    let tool = lamina_bridge::ToolSubscriber::create(&bridge).unwrap();
+    let (status, client) = open(&prefix, WATCHDOG_MS);
+    assert_eq!(status, LaminaStatus::Ok, "{}", message());
+    let received = || {
+        let sample = tool.receive_timeout(Duration::from_millis(WATCHDOG_MS.into())).unwrap();
+        *sample.expect("the command arrives").message()
+    };
+    assert_eq!(lamina_send_scalpel(client, 0.0, 0.044, 0.12, 0.01), LaminaStatus::Ok, "{}", message());
+    let got = received();
+    assert_eq!((got.kind(), got.blade_length_m), (Ok(lamina_bridge::ToolKind::Scalpel), 0.01));
+    assert_eq!((got.position, got.orientation, got.buttons), ([0.0, 0.044, 0.12], [0.0, 0.0, 0.0, 1.0], 0));
+    // Through lamina_send_tool: the edge turned 90 degrees about z (+y to -x).
+    let h = core::f64::consts::FRAC_1_SQRT_2;
+    let turned = LaminaToolCommand {
+        position: [0.0, 0.05, 0.1],
+        orientation: [0.0, 0.0, h, h],
+        kind: LAMINA_TOOL_SCALPEL,
+        blade_length_m: 0.02,
+        ..LaminaToolCommand::default()
+    };
+    // SAFETY: a valid command.
+    assert_eq!(unsafe { lamina_send_tool(client, &turned) }, LaminaStatus::Ok, "{}", message());
+    let got = received();
+    assert_eq!(
+        (got.kind(), got.orientation, got.blade_length_m),
+        (Ok(lamina_bridge::ToolKind::Scalpel), turned.orientation, 0.02)
+    );
+    let end = got.blade_end(got.blade_length_m);
+    assert!((end[0] + 0.02).abs() < 1e-15 && (end[1] - 0.05).abs() < 1e-15, "edge end {end:?}");
+    // The sphere still goes out as the sphere.
+    assert_eq!(lamina_send_sphere(client, 0.0, 0.06, 0.12, 0.0), LaminaStatus::Ok, "{}", message());
+    assert_eq!(received().kind(), Ok(lamina_bridge::ToolKind::Sphere));
+    // What the core would refuse never leaves.
+    let refused = [
+        (LaminaToolCommand { kind: 2, ..turned }, "kind 2 is no tool (0: LAMINA_TOOL_SPHERE, 1: LAMINA_TOOL_SCALPEL)"),
+        (LaminaToolCommand { blade_length_m: f64::NAN, ..turned }, "blade length NaN m is outside 0 <= l < 1 m"),
+        (LaminaToolCommand { blade_length_m: 1.0, ..turned }, "blade length 1 m is outside 0 <= l < 1 m"),
+        (LaminaToolCommand { blade_length_m: -0.01, ..turned }, "blade length -0.01 m is outside"),
+        (
+            LaminaToolCommand { orientation: [0.0; 4], ..turned },
+            "orientation [0, 0, 0, 0] turns the scalpel's edge nowhere",
+        ),
+    ];
+    for (command, why) in refused {
+        // SAFETY: a valid pointer; the command's values are what is wrong.
+        assert_eq!(unsafe { lamina_send_tool(client, &command) }, LaminaStatus::InvalidArgument, "{command:?}");
+        assert!(message().starts_with("lamina_send_tool: ") && message().contains(why), "{}", message());
+    }
+    assert_eq!(lamina_send_scalpel(client, 0.0, 0.05, 0.1, 2.0), LaminaStatus::InvalidArgument);
+    assert!(message().starts_with("lamina_send_scalpel: blade length 2 m"), "{}", message());
+    assert!(tool.try_receive().unwrap().is_none(), "no refused command was sent");
     assert_eq!(lamina_close(client), LaminaStatus::Ok);
 }

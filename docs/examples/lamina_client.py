@@ -122,8 +122,9 @@ def main():
                 position=(ctypes.c_double * 3)(origin[0], origin[1] - depth, origin[2]),
                 orientation=(ctypes.c_double * 4)(0.0, 0.0, 0.0, 1.0),
                 buttons=0,
-                reserved=0,
+                kind=lw.TOOL_SPHERE,
                 tool_radius_m=0.0,
+                blade_length_m=0.0,
             )
             tool_pub.send_copy(cmd)
             commands += 1

@@ -103,6 +103,11 @@ public:
     void send_grasp(const std::array<double, 3> &p, double radius_m, bool closed) const {
         check(lamina_send_grasp(handle_, p[0], p[1], p[2], radius_m, closed ? 1u : 0u), "lamina_send_grasp");
     }
+    /// The scalpel's tip at `p` (m, model frame), its cutting edge straight up (+y) from the
+    /// tip, `blade_length_m` long (0: the scene's).
+    void send_scalpel(const std::array<double, 3> &p, double blade_length_m = 0.0) const {
+        check(lamina_send_scalpel(handle_, p[0], p[1], p[2], blade_length_m), "lamina_send_scalpel");
+    }
     LaminaFeedback latest_feedback(uint32_t timeout_ms = 1000) const {
         LaminaFeedback fb{};
         check(lamina_latest_feedback(handle_, timeout_ms, &fb), "lamina_latest_feedback");

@@ -94,7 +94,7 @@ namespace Lamina
     public static class Native
     {
         const string Lib = "lamina_client";
-        public const uint AbiVersion = 1;
+        public const uint AbiVersion = 2;
 
         [DllImport(Lib)] public static extern uint lamina_abi_version();
         [DllImport(Lib)] public static extern UIntPtr lamina_last_error_copy(byte[] buffer, UIntPtr capacity);
@@ -109,6 +109,7 @@ namespace Lamina
         [DllImport(Lib)] public static extern Status lamina_latest_frame(ulong client, uint timeoutMs, [Out] float[] positions, UIntPtr capacityNodes, out FrameInfo info);
         [DllImport(Lib)] public static extern Status lamina_send_sphere(ulong client, double x, double y, double z, double radiusM);
         [DllImport(Lib)] public static extern Status lamina_send_grasp(ulong client, double x, double y, double z, double radiusM, uint closed);
+        [DllImport(Lib)] public static extern Status lamina_send_scalpel(ulong client, double x, double y, double z, double bladeLengthM);
         [DllImport(Lib)] public static extern Status lamina_latest_feedback(ulong client, uint timeoutMs, out Feedback feedback);
 
         /// <summary>The text of a NUL-terminated UTF-8 field.</summary>
@@ -199,6 +200,13 @@ namespace Lamina
         public void SendGrasp(double x, double y, double z, double radiusM, bool closed)
         {
             Check(Native.lamina_send_grasp(handle, x, y, z, radiusM, closed ? 1u : 0u), "lamina_send_grasp");
+        }
+
+        /// <summary>The scalpel's tip at (x, y, z), m, model frame, its cutting edge straight up
+        /// (+y) from the tip, bladeLengthM long (0: the scene's).</summary>
+        public void SendScalpel(double x, double y, double z, double bladeLengthM)
+        {
+            Check(Native.lamina_send_scalpel(handle, x, y, z, bladeLengthM), "lamina_send_scalpel");
         }
 
         public Feedback LatestFeedback(uint timeoutMs = 1000)

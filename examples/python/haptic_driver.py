@@ -85,6 +85,7 @@ def main() -> int:
         cmd.time_ns = time.monotonic_ns()
         cmd.position[:] = [float(c) for c in centre]
         cmd.orientation[:] = [0.0, 0.0, 0.0, 1.0]
+        cmd.kind = lw.TOOL_SPHERE
         cmd.tool_radius_m = args.radius
         tool_pub.send_copy(cmd)
         sequence += 1

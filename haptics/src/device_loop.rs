@@ -12,7 +12,7 @@ use super::renderer::{ForceRenderer, RenderLimits};
 use super::safety::{SafetyCounts, SafetyEvent, SafetyEventKind};
 use crate::device::{DeviceError, HapticDevice, LimitClamp, norm3, within_ceilings};
 use crate::watchdog::{CallWatch, DEVICE_CALL_LIMIT_NS, DeviceCall};
-use lamina_bridge::wire::ToolCommand;
+use lamina_bridge::wire::{ToolCommand, ToolKind};
 use lamina_bridge::{Bridge, FeedbackSubscriber, PortCreateError, ToolPublisher};
 use lamina_rt::now_ns;
 
@@ -25,6 +25,12 @@ pub struct HapticsConfig {
     pub mapping: DeviceMapping,
     /// Tool tip radius sent with each command, m; 0 lets the core use its scene's. Default 0.
     pub tool_radius_m: f64,
+    /// The tool sent with each command unless the device names its own
+    /// ([`HapticDevice::tool_kind`]). Default: the sphere.
+    pub tool_kind: ToolKind,
+    /// Scalpel blade length sent with each command, m; 0 lets the core use its scene's.
+    /// Default 0.
+    pub blade_length_m: f64,
     /// Upper bound on force, N: above 0 and at most the device's limit (held to its class
     /// ceiling), else the loop refuses to start ([`check_force_cap`]). Default: none.
     pub max_force_n: Option<f64>,
@@ -38,6 +44,8 @@ impl Default for HapticsConfig {
             rate_hz: 4000,
             mapping: DeviceMapping::y_up_model([0.0; 3]),
             tool_radius_m: 0.0,
+            tool_kind: ToolKind::Sphere,
+            blade_length_m: 0.0,
             max_force_n: None,
             trace_capacity: 0,
         }
@@ -232,8 +240,9 @@ pub fn run_device_loop(
                 position: cfg.mapping.to_model(state.position_m),
                 orientation: cfg.mapping.orientation_to_model(state.orientation),
                 buttons: state.buttons,
-                reserved: 0,
+                kind: device.tool_kind().unwrap_or(cfg.tool_kind).code(),
                 tool_radius_m: cfg.tool_radius_m,
+                blade_length_m: cfg.blade_length_m,
             };
             match probe.measure(&send_clock, || tool.publish_polled(&cmd)) {
                 Ok(_) => commands_sent += 1,

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
 use clap::Parser;
-use lamina_bridge::{Bridge, BridgeConfig};
+use lamina_bridge::{Bridge, BridgeConfig, ToolKind};
 use lamina_haptics::core_model::wait_for_core_model;
 use lamina_haptics::device::{
     DeviceError, EmergencyStop, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory, within_ceilings,
@@ -58,6 +58,14 @@ struct Args {
     /// Tool tip radius sent to the core, m; 0 uses the scene's.
     #[arg(long, default_value_t = 0.0)]
     tool_radius: f64,
+    /// The tool in the hand: `sphere` (press, grasp with button 0) or `scalpel` (cuts along its
+    /// edge, from the tip straight up the stylus). Default: sphere, or what a scripted
+    /// trajectory's `kind` column says (the two cannot both be given).
+    #[arg(long, value_parser = parse_tool)]
+    tool: Option<ToolKind>,
+    /// Length of the scalpel's cutting edge, mm, from 1 to 50.
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
+    blade_length_mm: f64,
     /// Cap on the force, N: above 0 and at most the device's limit (its reported limit held to
     /// its class ceiling, printed at start); any other value is refused.
     #[arg(long, allow_negative_numbers = true)]
@@ -86,6 +94,13 @@ struct Args {
     #[arg(long, value_name = "LEVEL", default_value = "info")]
     log_level: tracing::Level,
 }
+
+fn parse_tool(s: &str) -> Result<ToolKind, String> {
+    ToolKind::parse(s).ok_or_else(|| format!("'{s}': expected sphere or scalpel"))
+}
+
+/// Shortest and longest --blade-length-mm, mm.
+const BLADE_LENGTH_MM: (f64, f64) = (1.0, 50.0);
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> =
@@ -332,6 +347,13 @@ fn check_options(args: &Args) -> anyhow::Result<()> {
     {
         bail!("--seconds {}: must be a number of seconds above 0 and at most {MAX_RUN_S:e}", show(s));
     }
+    let (shortest, longest) = BLADE_LENGTH_MM;
+    if !(shortest..=longest).contains(&args.blade_length_mm) {
+        bail!(
+            "--blade-length-mm {}: must be a blade length from {shortest} to {longest} mm",
+            show(args.blade_length_mm)
+        );
+    }
     if !(0.0..=MAX_WAIT_CORE_S).contains(&args.wait_core_s) {
         bail!(
             "--wait-core-s {}: must be a number of seconds from 0 to {MAX_WAIT_CORE_S} (one day)",
@@ -449,6 +471,12 @@ fn run(args: &Args) -> anyhow::Result<bool> {
     let (mut device, script_s) =
         device.map_err(anyhow::Error::msg).with_context(|| format!("haptic device '{}'", args.device))?;
     check_limits(args, device.as_ref())?;
+    if let (Some(tool), Some(_)) = (args.tool, device.tool_kind()) {
+        bail!(
+            "--tool {tool}: haptic device '{}' names the tool itself (the trajectory's kind column); drop --tool or the column",
+            args.device
+        );
+    }
     let scene = args.scene.as_deref().map(SceneFile::read).transpose()?;
     let context = RunContext::start(scene);
     let seconds = args.seconds.or(script_s.map(|s| s + 0.2));
@@ -493,6 +521,8 @@ fn run(args: &Args) -> anyhow::Result<bool> {
         rate_hz: args.rate_hz,
         mapping,
         tool_radius_m: args.tool_radius,
+        tool_kind: args.tool.unwrap_or_default(),
+        blade_length_m: args.blade_length_mm * 1e-3,
         max_force_n: args.max_force,
         trace_capacity,
     };

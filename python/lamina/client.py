@@ -146,19 +146,37 @@ class Core:
         frame, m), its radius (0, the default: the scene's), the grasp button. Returns the
         command's sequence number. The core parks the tool when commands stop for the scene's
         `timeout_ms` (default 100 ms): send at the device's rate."""
-        self._open()
-        x = _point("position_m", position_m)
         radius = float(radius_m)
         if not (math.isfinite(radius) and radius >= 0):
             raise ValueError(f"radius_m must be 0 (the scene's radius) or a positive finite radius in m, got {radius}")
+        return self._send_tool(wire.TOOL_SPHERE, position_m, (0.0, 0.0, 0.0, 1.0), 1 if grasp else 0, radius, 0.0)
+
+    def send_scalpel(self, tip_m, orientation=(0.0, 0.0, 0.0, 1.0), blade_length_m: float = 0.0) -> int:
+        """Sends one scalpel command: the blade's tip `tip_m` (3 coordinates, model frame, m),
+        the tool's orientation (unit quaternion `[x, y, z, w]`; the identity, the default,
+        holds the cutting edge straight up, +y, from the tip) and the edge's length (0, the
+        default: the scene's). The blade cuts what its edge sweeps between two core ticks.
+        Returns the command's sequence number."""
+        q = [float(c) for c in orientation]
+        if len(q) != 4 or not all(math.isfinite(c) for c in q) or sum(c * c for c in q) == 0.0:
+            raise ValueError(f"orientation must be 4 finite numbers [x, y, z, w], not all 0, got {orientation!r}")
+        length = float(blade_length_m)
+        if not (math.isfinite(length) and 0 <= length < 1):
+            raise ValueError(f"blade_length_m must be 0 (the scene's) or a finite length below 1 m, got {length}")
+        return self._send_tool(wire.TOOL_SCALPEL, tip_m, q, 0, 0.0, length)
+
+    def _send_tool(self, kind: int, position_m, orientation, buttons: int, radius: float, blade: float) -> int:
+        self._open()
+        x = _point("position_m" if kind == wire.TOOL_SPHERE else "tip_m", position_m)
         cmd = wire.ToolCommand(
             sequence=self._sequence,
             time_ns=time.clock_gettime_ns(time.CLOCK_MONOTONIC),
             position=(ctypes.c_double * 3)(*x),
-            orientation=(ctypes.c_double * 4)(0.0, 0.0, 0.0, 1.0),
-            buttons=1 if grasp else 0,
-            reserved=0,
+            orientation=(ctypes.c_double * 4)(*orientation),
+            buttons=buttons,
+            kind=kind,
             tool_radius_m=radius,
+            blade_length_m=blade,
         )
         self._tool_pub.send_copy(cmd)
         self._sequence += 1

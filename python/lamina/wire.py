@@ -223,23 +223,32 @@ class TopologyHeader(ctypes.Structure):
         )
 
 
+# Tool kinds: `ToolCommand.kind` (bridge/src/wire.rs `ToolKind`).
+TOOL_SPHERE = 0
+TOOL_SCALPEL = 1
+TOOL_KINDS = {TOOL_SPHERE: "sphere", TOOL_SCALPEL: "scalpel"}
+
+
 class ToolCommand(ctypes.Structure):
-    """Haptic tool pose (client -> core). The newest command wins; commands older than the
-    scene's `timeout_ms` (default 100 ms) park the tool."""
+    """Haptic tool pose and kind (client -> core). The newest command wins; commands older
+    than the scene's `timeout_ms` (default 100 ms) park the tool. The scalpel's cutting edge
+    runs from the tip at `position` along the tool's local +y axis rotated by `orientation`,
+    `blade_length_m` long (0: the scene's)."""
 
     _fields_ = [
         ("sequence", ctypes.c_uint64),
         ("time_ns", ctypes.c_uint64),  # CLOCK_MONOTONIC when the device was sampled
-        ("position", ctypes.c_double * 3),  # sphere centre, model frame, m
+        ("position", ctypes.c_double * 3),  # sphere centre or scalpel tip, model frame, m
         ("orientation", ctypes.c_double * 4),  # unit quaternion [x, y, z, w]
-        ("buttons", ctypes.c_uint32),  # bit 0 held: grasp
-        ("reserved", ctypes.c_uint32),
+        ("buttons", ctypes.c_uint32),  # bit 0 held: the sphere grasps
+        ("kind", ctypes.c_uint32),  # TOOL_SPHERE or TOOL_SCALPEL; other codes are refused
         ("tool_radius_m", ctypes.c_double),  # 0: the scene's radius
+        ("blade_length_m", ctypes.c_double),  # scalpel edge length; 0: the scene's
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "LaminaToolCommandV1"
+        return "LaminaToolCommandV2"
 
 
 class ContactFeedback(ctypes.Structure):
@@ -304,7 +313,7 @@ WIRE_SIZES = {
     WireTool: 144,
     WireVolume: 304,
     TopologyHeader: 1704,
-    ToolCommand: 88,
+    ToolCommand: 96,
     ContactFeedback: 152,
     StatsSummary: 136,
 }

@@ -98,6 +98,12 @@ pub trait HapticDevice: Send {
     fn emergency_stop(&self) -> Option<std::sync::Arc<dyn EmergencyStop>> {
         None
     }
+    /// The tool the handle holds as of the last `read`, when the device says so itself (a
+    /// trajectory's `kind` column); `None` leaves it to the haptics process (`--tool`). Called
+    /// once per tick after `read`; must not block. Default: `None`.
+    fn tool_kind(&self) -> Option<lamina_bridge::wire::ToolKind> {
+        None
+    }
 }
 
 /// Zeroes a device's force from any thread, even while another call on the device is in

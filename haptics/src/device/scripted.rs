@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{DeviceError, DeviceInfo, DeviceState, HapticDevice};
+use lamina_bridge::wire::ToolKind;
 use lamina_rt::now_ns;
 
 /// Latest script time a trajectory may hold, s: one day.
@@ -22,15 +23,18 @@ pub struct TrajectoryPoint {
     pub position_m: [f64; 3],
     /// Buttons held from this row on (bit `i` = button `i`).
     pub buttons: u32,
+    /// The tool from this row on: `sphere` unless the file has a `kind` column.
+    pub kind: ToolKind,
 }
 
 /// A handle trajectory read from CSV.
 ///
-/// Format: a header line `t_s,x_m,y_m,z_m` with an optional fifth column `buttons`, then one
-/// row per point; `#` starts a comment line; blank lines are ignored. Times strictly
-/// increase within 0 to [`MAX_SCRIPT_S`]; every position lies within [`SCRIPT_REACH_M`] of
-/// the workspace centre. Positions are linear between rows; buttons switch at rows; after the
-/// last row the handle holds still.
+/// Format: a header line `t_s,x_m,y_m,z_m` followed by the optional columns `buttons` (a bit
+/// set) and `kind` (the tool: `sphere` or `scalpel`, or their codes `0` and `1`), each at most
+/// once, in either order; then one row per point; `#` starts a comment line; blank lines are
+/// ignored. Times strictly increase within 0 to [`MAX_SCRIPT_S`]; every position lies within
+/// [`SCRIPT_REACH_M`] of the workspace centre. Positions are linear between rows; buttons and
+/// kind switch at rows; after the last row the handle holds still.
 ///
 /// # Examples
 ///
@@ -41,10 +45,15 @@ pub struct TrajectoryPoint {
 /// let z = t.position_at(0.5)[2]; // halfway from 2 cm above to 1 cm below
 /// assert!((z - 0.005).abs() < 1e-15);
 /// assert_eq!(t.duration_s(), 1.0);
+/// assert_eq!(t.kind_at(0.5), None, "no kind column: the haptics process's --tool decides");
+///
+/// let cut = Trajectory::parse("t_s,x_m,y_m,z_m,kind\n0,0,0,0,scalpel\n", "cut.csv").unwrap();
+/// assert_eq!(cut.kind_at(0.0), Some(lamina_bridge::wire::ToolKind::Scalpel));
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trajectory {
     points: Vec<TrajectoryPoint>,
+    has_kind: bool,
     source: PathBuf,
 }
 
@@ -66,11 +75,21 @@ impl Trajectory {
             text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
         let (hline, header) = lines.next().ok_or_else(|| err(0, "empty: expected a header t_s,x_m,y_m,z_m".into()))?;
         let columns: Vec<&str> = header.split(',').map(str::trim).collect();
-        let with_buttons = match columns.as_slice() {
-            ["t_s", "x_m", "y_m", "z_m"] => false,
-            ["t_s", "x_m", "y_m", "z_m", "buttons"] => true,
-            _ => return Err(err(hline + 1, format!("header '{header}': expected t_s,x_m,y_m,z_m[,buttons]"))),
-        };
+        let bad_header = || err(hline + 1, format!("header '{header}': expected t_s,x_m,y_m,z_m[,buttons][,kind]"));
+        if columns.len() < 4 || columns[..4] != ["t_s", "x_m", "y_m", "z_m"] {
+            return Err(bad_header());
+        }
+        let (mut buttons_at, mut kind_at) = (None, None);
+        for (k, name) in columns.iter().enumerate().skip(4) {
+            let slot = match *name {
+                "buttons" => &mut buttons_at,
+                "kind" => &mut kind_at,
+                _ => return Err(bad_header()),
+            };
+            if slot.replace(k).is_some() {
+                return Err(err(hline + 1, format!("header '{header}': column '{name}' twice")));
+            }
+        }
         let mut points: Vec<TrajectoryPoint> = Vec::new();
         for (i, line) in lines {
             let n = i + 1;
@@ -85,10 +104,17 @@ impl Trajectory {
                     return Err(err(n, format!("{}: '{f}' is not finite", columns[k])));
                 }
             }
-            let buttons = if with_buttons {
-                fields[4].parse::<u32>().map_err(|_| err(n, format!("buttons: '{}' is not a bit set", fields[4])))?
-            } else {
-                0
+            let buttons = match buttons_at {
+                Some(k) => fields[k]
+                    .parse::<u32>()
+                    .map_err(|_| err(n, format!("buttons: '{}' is not a bit set", fields[k])))?,
+                None => 0,
+            };
+            let kind = match kind_at {
+                Some(k) => ToolKind::parse(fields[k]).ok_or_else(|| {
+                    err(n, format!("kind: '{}' is not a tool (expected sphere, scalpel, 0 or 1)", fields[k]))
+                })?,
+                None => ToolKind::Sphere,
             };
             if !(0.0..=MAX_SCRIPT_S).contains(&v[0]) {
                 return Err(err(n, format!("t_s: {} is outside 0 to {MAX_SCRIPT_S} s (one day)", fields[0])));
@@ -108,12 +134,12 @@ impl Trajectory {
                     ),
                 ));
             }
-            points.push(TrajectoryPoint { t_s: v[0], position_m: [v[1], v[2], v[3]], buttons });
+            points.push(TrajectoryPoint { t_s: v[0], position_m: [v[1], v[2], v[3]], buttons, kind });
         }
         if points.is_empty() {
             return Err(err(hline + 1, "no points after the header".into()));
         }
-        Ok(Self { points, source: PathBuf::from(file) })
+        Ok(Self { points, has_kind: kind_at.is_some(), source: PathBuf::from(file) })
     }
 
     /// The points, in time order.
@@ -152,6 +178,17 @@ impl Trajectory {
     /// Buttons held at script time `t_s`.
     pub fn buttons_at(&self, t_s: f64) -> u32 {
         if t_s < self.points[0].t_s { 0 } else { self.points[self.segment(t_s)].buttons }
+    }
+
+    /// Whether the file has a `kind` column (then it, not `--tool`, names the tool).
+    pub fn has_kind(&self) -> bool {
+        self.has_kind
+    }
+
+    /// The tool at script time `t_s` (the first row's before it); `None` when the file has no
+    /// `kind` column.
+    pub fn kind_at(&self, t_s: f64) -> Option<ToolKind> {
+        self.has_kind.then(|| self.points[self.segment(t_s)].kind)
     }
 
     /// The file it came from.
@@ -274,6 +311,10 @@ impl HapticDevice for ScriptedDevice {
             orientation: [0.0, 0.0, 0.0, 1.0],
             buttons: self.trajectory.buttons_at(t),
         })
+    }
+
+    fn tool_kind(&self) -> Option<ToolKind> {
+        self.trajectory.kind_at(self.last_t_s)
     }
 
     fn write_force(&mut self, force_n: [f64; 3]) -> Result<(), DeviceError> {
