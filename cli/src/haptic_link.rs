@@ -8,13 +8,16 @@
 //!
 //! Bad commands (non-finite pose, radius or blade length, positions beyond 1 km, a tool kind
 //! other than sphere or scalpel) are counted and ignored: the tool stays where the last good
-//! command put it. A scalpel command is counted and keeps the sphere parked (no contact). Commands older than the scene's
+//! command put it. A scalpel command parks the sphere and moves the scene's scalpel
+//! (`[scalpel]`, [`Scalpel`]): its tip presses the skin, and once through it the edge cuts;
+//! without a `[scalpel]` it cuts nothing. Commands older than the scene's
 //! `timeout_ms` park the tool (out of the loop, zero force) until the haptics process is back.
 //! Nothing here allocates after [`HapticLink::attach`].
 
 use lamina_bridge::wire::{ContactFeedback, ToolCommand, ToolKind};
 use lamina_bridge::{Bridge, FeedbackPublisher, ToolSubscriber, now_ns};
 use lamina_core::hand_tool::HandTool;
+use lamina_core::incision::{Blade, Scalpel};
 use lamina_core::real::Real;
 use lamina_core::scene::{ToolSettings, ToolSource};
 use lamina_core::solver::Simulation;
@@ -55,6 +58,10 @@ pub struct HapticLink {
     last_command_ns: Option<u64>,
     /// The tool, from [`HapticLink::attach`].
     hand: Option<HandTool>,
+    /// The scene's scalpel, from [`HapticLink::attach_scalpel`], and the tick, s.
+    scalpel: Option<(Scalpel, f64)>,
+    /// Whether the last command was the scalpel's.
+    cutting: bool,
     /// What the link did so far.
     pub counts: HapticLinkCounts,
 }
@@ -82,6 +89,8 @@ impl HapticLink {
             timeout_ns: (timeout_s * 1e9) as u64,
             last_command_ns: None,
             hand: None,
+            scalpel: None,
+            cutting: false,
             counts: HapticLinkCounts::default(),
         }))
     }
@@ -89,6 +98,17 @@ impl HapticLink {
     /// Before the loop: the tool the simulation was built with ([`HandTool::simulation`]).
     pub fn attach(&mut self, hand: HandTool) {
         self.hand = Some(hand);
+    }
+
+    /// Before the loop: the scene's scalpel (`[scalpel]`), which scalpel commands drive, for
+    /// ticks of `dt` s. Without one, scalpel commands keep the sphere parked and cut nothing.
+    pub fn attach_scalpel(&mut self, scalpel: Scalpel, dt: f64) {
+        self.scalpel = Some((scalpel, dt));
+    }
+
+    /// The scalpel's totals (springs cut per layer, punctures, peak forces), when attached.
+    pub fn scalpel_totals(&self) -> Option<lamina_core::incision::ScalpelTotals> {
+        self.scalpel.as_ref().map(|(s, _)| s.totals())
     }
 
     /// Applies the newest tool command (or parks a tool whose commands stopped).
@@ -105,12 +125,30 @@ impl HapticLink {
                         self.counts.bad_commands += 1;
                     }
                     Ok(ToolKind::Scalpel) => {
-                        // The sphere is out of the loop while the scalpel is in the hand.
-                        hand.park(sim);
+                        // The sphere is out of the loop while the scalpel is in the hand; the
+                        // scalpel's tip presses, and cuts once through the skin.
+                        if !self.cutting {
+                            hand.park(sim);
+                        }
+                        if let Some((scalpel, dt)) = self.scalpel.as_mut() {
+                            let length = if c.blade_length_m > 0.0 {
+                                c.blade_length_m
+                            } else {
+                                scalpel.settings().blade_length
+                            };
+                            scalpel.move_to(sim, Blade::from_pose(c.position, c.orientation, length), *dt);
+                        }
+                        self.cutting = true;
                         self.last_command_ns = Some(now);
                         self.counts.scalpel_commands += 1;
                     }
                     Ok(ToolKind::Sphere) => {
+                        if self.cutting {
+                            if let Some((scalpel, _)) = self.scalpel.as_mut() {
+                                scalpel.lift(sim);
+                            }
+                            self.cutting = false;
+                        }
                         // Button 0 grasps at the commanded centre; letting it go releases, and
                         // the sphere presses again.
                         let grasping = c.buttons & 1 != 0;
@@ -134,6 +172,10 @@ impl HapticLink {
             && now.saturating_sub(last) > self.timeout_ns
         {
             hand.park(sim);
+            if let Some((scalpel, _)) = self.scalpel.as_mut() {
+                scalpel.lift(sim);
+            }
+            self.cutting = false;
             self.last_command_ns = None;
             self.counts.parked += 1;
         }
@@ -142,7 +184,14 @@ impl HapticLink {
     /// Publishes the contact feedback of the step just taken.
     pub fn after_step<T: Real>(&mut self, sim: &Simulation<T>, tick: u64) {
         let mut msg = ContactFeedback { sequence: self.counts.feedback, tick, ..ContactFeedback::default() };
-        if let Some(hand) = &self.hand {
+        let scalpel = self.scalpel.as_ref().filter(|_| self.cutting).map(|(s, _)| s);
+        if let Some(scalpel) = scalpel {
+            let fb = scalpel.feedback(sim);
+            msg.x_ref = fb.centre;
+            msg.in_contact = u32::from(fb.in_contact);
+            msg.force = fb.force;
+            msg.stiffness = fb.stiffness;
+        } else if let Some(hand) = &self.hand {
             let fb = hand.feedback(sim);
             msg.x_ref = hand.centre();
             msg.in_contact = u32::from(fb.in_contact);

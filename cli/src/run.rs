@@ -3,6 +3,8 @@
 
 use super::frame_gate::NodeFrameGate;
 use lamina_core::hand_tool::HandTool;
+use lamina_core::incision::Scalpel;
+use lamina_core::solver::FactorSwap;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, STANDBY_DELAY_US, Scene};
@@ -157,6 +159,17 @@ fn run_scene<T: Real>(loaded: &super::run_report::LoadedScene, opts: &RunOptions
             if let Some(h) = p.haptic.as_mut() {
                 if let Some(tool) = hand_tool.take() {
                     h.attach(tool);
+                }
+                if let (Some(settings), Some(tool)) = (scene.scalpel, scene.tool.as_ref()) {
+                    let scalpel = Scalpel::new(&model, &sim, tool, settings)
+                        .and_then(|s| sim.prepare_cutting(&model, FactorSwap::WhenReady).map(|()| s))
+                        .map_err(|e| format!("{}: [scalpel]: {e}", scene_name()))?;
+                    h.attach_scalpel(scalpel, scene.solver.dt);
+                    println!(
+                        "scalpel: a {:.0} mm blade when a command asks for it; the skin gives at {:.2} N; factors of the cut model built on a thread of the lowest priority",
+                        settings.blade_length * 1e3,
+                        settings.puncture_force
+                    );
                 }
                 println!(
                     "tool: sphere driven by the haptics process on '{prefix}/tool', contact published on '{prefix}/feedback' every tick"
@@ -702,6 +715,30 @@ fn print_physics<T: Real>(
                 c.bad_feedback,
                 c.failures
             );
+            if let Some(t) = h.scalpel_totals() {
+                println!(
+                    "scalpel: {} puncture(s), springs cut skin {} fat {} muscle {}, deepest edge skin {:.1} fat {:.1} muscle {:.1} mm, peak press {:.2} N, peak cutting force {:.2} N, {:.1} mm of tip travel in the tissue",
+                    t.punctures,
+                    t.springs_cut[0],
+                    t.springs_cut[1],
+                    t.springs_cut[2],
+                    t.deepest.skin * 1e3,
+                    t.deepest.fat * 1e3,
+                    t.deepest.muscle * 1e3,
+                    t.peak_press,
+                    t.peak_force,
+                    t.cut_length * 1e3
+                );
+            }
+            if let Some(r) = sim.refactor_status() {
+                println!(
+                    "factors of the cut model: {} taken, {} cuts in the one in use, last build {:.1} ms, longest {:.1} ms",
+                    r.taken,
+                    r.cuts_in_factor,
+                    r.last_build_s * 1e3,
+                    r.longest_build_s * 1e3
+                );
+            }
         }
     }
     finite

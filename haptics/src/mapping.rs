@@ -113,9 +113,14 @@ impl DeviceMapping {
         out
     }
 
-    /// Device orientation (unit quaternion `[x, y, z, w]`) → model orientation.
+    /// Device orientation (unit quaternion `[x, y, z, w]`, the stylus's rotation from its rest
+    /// pose) → the same rotation in the model frame, `R q R⁻¹`: the stylus at rest is the
+    /// identity in both, so a scalpel at rest has its edge straight up in the model (the wire's
+    /// convention, docs/wire-protocol.md), and a turn about a device axis is the turn about
+    /// that axis mapped into the model.
     pub fn orientation_to_model(&self, q: [f64; 4]) -> [f64; 4] {
-        quat_mul(rotation_quat(&self.rotation), q)
+        let r = rotation_quat(&self.rotation);
+        quat_mul(quat_mul(r, q), [-r[0], -r[1], -r[2], r[3]])
     }
 }
 
@@ -193,11 +198,22 @@ mod tests {
     #[test]
     fn mapping_orientation_matches_rotation_works() {
         let m = DeviceMapping::y_up_model([0.0; 3]);
+        // The stylus at rest is the identity in the model too.
         let q = m.orientation_to_model([0.0, 0.0, 0.0, 1.0]);
-        // Rotate device x by q: must land on model z.
-        let v = [1.0, 0.0, 0.0];
-        let qv = quat_mul(quat_mul(q, [v[0], v[1], v[2], 0.0]), [-q[0], -q[1], -q[2], q[3]]);
-        assert!(close([qv[0], qv[1], qv[2]], [0.0, 0.0, 1.0]));
+        assert!(close([q[0], q[1], q[2]], [0.0; 3]) && (q[3] - 1.0).abs() < 1e-12);
+        // A quarter turn about the device's up axis (z) is a quarter turn about the model's
+        // up axis (y): it takes model z (device x) to model x (device y).
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let q = m.orientation_to_model([0.0, 0.0, h, h]);
+        let rotate = |v: [f64; 3]| {
+            let qv = quat_mul(quat_mul(q, [v[0], v[1], v[2], 0.0]), [-q[0], -q[1], -q[2], q[3]]);
+            [qv[0], qv[1], qv[2]]
+        };
+        assert!(close(rotate([0.0, 1.0, 0.0]), [0.0, 1.0, 0.0]), "the up axis stays");
+        let device_y_in_model = m.to_model([0.0, 1.0, 0.0]);
+        let origin = m.to_model([0.0; 3]);
+        let expected = [0, 1, 2].map(|c| device_y_in_model[c] - origin[c]);
+        assert!(close(rotate([0.0, 0.0, 1.0]), expected), "{:?} vs {expected:?}", rotate([0.0, 0.0, 1.0]));
         let norm = q.iter().map(|c| c * c).sum::<f64>();
         assert!((norm - 1.0).abs() < 1e-12);
     }

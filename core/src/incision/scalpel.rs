@@ -31,7 +31,7 @@
 //! takes less (the median of 24 needle studies is 1.22 N; van Gerwen, Dankelman and van den
 //! Dobbelsteen, Med Eng Phys 34:665, 2012).
 
-use super::blade::{Blade, Sweep, cross, dot, norm, sub};
+use super::blade::{Blade, Sweep, cross, dot, norm, segment_crosses_triangle, sub};
 use crate::model::{Model, Tissue};
 use crate::real::Real;
 use crate::scene::ToolSettings;
@@ -43,6 +43,10 @@ pub const EDGE_SAMPLES: usize = 24;
 /// The springs tested are those of nodes within the sweep's reach plus this many longest
 /// rest lengths: a spring stretched to up to three times its rest length is seen.
 const REACH_REST_LENGTHS: f64 = 1.5;
+
+/// Consecutive ticks the tip must be above the skin before the blade counts as out of the
+/// tissue (a wound's edges shift under it; a single tick's reading does not pull it out).
+pub const TICKS_TO_LEAVE: u32 = 20;
 
 /// Cutting toughness per tissue, J/m² (N per m of edge).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -230,6 +234,11 @@ pub struct Scalpel {
     reach: f64,
     boundaries: Vec<Boundary>,
     state: BladeState,
+    /// Ticks in a row the tip has been above the skin while cutting.
+    tip_out_ticks: u32,
+    /// Per boundary: the candidate nodes on it near the blade.
+    near: Vec<Vec<u32>>,
+    longest_rest: f64,
     last: Option<Blade>,
     force: [f64; 3],
     totals: ScalpelTotals,
@@ -271,7 +280,7 @@ impl Scalpel {
             }
         }
         let longest = s.rest_length.iter().copied().fold(0.0, f64::max);
-        let boundaries = (0..model.surfaces.len())
+        let boundaries: Vec<Boundary> = (0..model.surfaces.len())
             .filter(|&k| model.surfaces[k].tissue_beneath() != Tissue::Other)
             .map(|k| Boundary::new(model, k))
             .collect();
@@ -288,6 +297,9 @@ impl Scalpel {
             candidate: vec![false; n],
             candidates: Vec::with_capacity(n),
             reach: REACH_REST_LENGTHS * longest,
+            near: boundaries.iter().map(|_| Vec::with_capacity(n)).collect(),
+            longest_rest: longest,
+            tip_out_ticks: 0,
             boundaries,
             state: BladeState::Outside,
             last: None,
@@ -317,6 +329,7 @@ impl Scalpel {
             }
             if pressing && press >= self.settings.puncture_force {
                 self.state = BladeState::Cutting;
+                self.tip_out_ticks = 0;
                 self.totals.punctures += 1;
                 tick.punctured = true;
                 sim.effects_mut().tool = None;
@@ -334,11 +347,15 @@ impl Scalpel {
                 });
             }
         }
+        self.find_near(sim, &blade);
         tick.edge = self.edge_in_tissue(sim, &blade);
         if self.state == BladeState::Cutting {
-            if tick.edge.total() == 0.0 {
+            let tip_out = self.tissue_at(sim, blade.tip).is_none();
+            self.tip_out_ticks = if tip_out { self.tip_out_ticks + 1 } else { 0 };
+            if self.tip_out_ticks >= TICKS_TO_LEAVE {
                 // The tip is above the skin again.
                 self.state = BladeState::Outside;
+                self.tip_out_ticks = 0;
                 self.force = [0.0; 3];
             } else {
                 tick.springs_cut = self.cut_swept(sim, &sweep);
@@ -364,6 +381,7 @@ impl Scalpel {
             sim.effects_mut().tool = None;
         }
         self.state = BladeState::Outside;
+        self.tip_out_ticks = 0;
         self.last = None;
         self.force = [0.0; 3];
     }
@@ -463,11 +481,31 @@ impl Scalpel {
         }
     }
 
+    /// Lists, per boundary, the candidate nodes on it within half the blade plus a longest
+    /// rest length of the blade's middle: those a sample of the edge can be nearest.
+    fn find_near<T: Real>(&mut self, sim: &Simulation<T>, blade: &Blade) {
+        let mid = blade.point(0.5);
+        let r = 0.5 * blade.length() + 2.0 * self.longest_rest;
+        let x = &sim.state().x;
+        for (b, near) in self.boundaries.iter().zip(self.near.iter_mut()) {
+            near.clear();
+            for &i in &self.candidates {
+                if b.on[i as usize] {
+                    let d = sub(x.get_f64(i as usize), mid);
+                    if dot(d, d) <= r * r {
+                        near.push(i);
+                    }
+                }
+            }
+        }
+    }
+
     /// Cuts the springs of the candidate nodes that cross `sweep`; returns how many.
     fn cut_swept<T: Real>(&mut self, sim: &mut Simulation<T>, sweep: &Sweep) -> u32 {
         if sweep.area() < super::blade::MIN_SWEPT_AREA_M2 {
             return 0;
         }
+        let triangles = sweep.triangles();
         let mut count = 0;
         for k in 0..self.candidates.len() {
             let i = self.candidates[k] as usize;
@@ -483,7 +521,8 @@ impl Scalpel {
                     continue;
                 }
                 let x = &sim.state().x;
-                if sweep.crosses(x.get_f64(a as usize), x.get_f64(b as usize)) && sim.cut_spring(s) {
+                let (pa, pb) = (x.get_f64(a as usize), x.get_f64(b as usize));
+                if triangles.iter().any(|t| segment_crosses_triangle(pa, pb, t)) && sim.cut_spring(s) {
                     self.cut[s] = true;
                     self.cut_order.push(s as u32);
                     let t = match tissue {
@@ -512,20 +551,25 @@ impl Scalpel {
         out
     }
 
+    /// The tissue at `p` (m) at the simulation's positions; `None` outside the skin.
+    pub fn tissue_at_point<T: Real>(&mut self, sim: &Simulation<T>, p: [f64; 3]) -> Option<Tissue> {
+        let blade = Blade { tip: p, back: p };
+        self.find_candidates(sim, &Sweep { from: blade, to: blade });
+        self.find_near(sim, &blade);
+        self.tissue_at(sim, p)
+    }
+
     /// The tissue at `p` (m): beneath the deepest boundary `p` is inside of (by the outward
     /// normal at the boundary's candidate node nearest `p`); `None` outside the skin.
     fn tissue_at<T: Real>(&self, sim: &Simulation<T>, p: [f64; 3]) -> Option<Tissue> {
         let x = &sim.state().x;
         let mut inside = None;
-        for b in &self.boundaries {
-            let nearest = self
-                .candidates
+        for (b, near) in self.boundaries.iter().zip(&self.near) {
+            let nearest = near
                 .iter()
-                .map(|&i| i as usize)
-                .filter(|&i| b.on[i])
-                .map(|i| {
-                    let d = sub(p, x.get_f64(i));
-                    (dot(d, d), i, d)
+                .map(|&i| {
+                    let d = sub(p, x.get_f64(i as usize));
+                    (dot(d, d), i as usize, d)
                 })
                 .min_by(|u, v| u.0.total_cmp(&v.0));
             let Some((_, i, d)) = nearest else { break };
