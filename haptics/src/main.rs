@@ -73,6 +73,10 @@ struct Args {
     /// before the loop.
     #[arg(long)]
     trace_csv: Option<PathBuf>,
+    /// Turn the passivity controller off: the observer still measures the energy the device
+    /// gives the hand, but nothing damps what the rendering creates (for measurements only).
+    #[arg(long)]
+    no_passivity_control: bool,
     /// Pin the device loop to this CPU.
     #[arg(long)]
     cpu: Option<usize>,
@@ -229,6 +233,19 @@ fn print_report(r: &HapticsReport, rate_hz: u32, device: &str) {
         r.device_class,
         if clamps.is_empty() { "reported limits within its ceilings".to_string() } else { clamps.join("; ") }
     );
+    let p = &r.passivity;
+    println!(
+        "  passivity: energy to the hand {:.4e} J, from the hand {:.4e} J; observed energy {:.4e} J (lowest {:.4e} J); controller {}: dissipated {:.4e} J in {} tick(s), {} at the damping ceiling; ticks without a pose {}",
+        p.energy_to_hand_j,
+        p.energy_from_hand_j,
+        p.observed_energy_j,
+        p.min_observed_energy_j,
+        if p.controller_on { "on" } else { "off" },
+        p.dissipated_j,
+        p.controller_ticks,
+        p.controller_saturated_ticks,
+        p.unobserved_ticks
+    );
     println!("  tool commands sent {}, port failures {}", r.commands_sent, r.port_failures);
 }
 
@@ -261,6 +278,7 @@ fn report_json(r: &HapticsReport, c: &ReportContext) -> serde_json::Value {
             "max_ns": if l.is_empty() { 0 } else { l.max() },
         },
         "safety": r.safety,
+        "passivity": r.passivity,
         "max_force_n": r.max_force_n,
         "limits": {
             "max_force_n": r.limits.max_force_n,
@@ -495,6 +513,7 @@ fn run(args: &Args) -> anyhow::Result<bool> {
         tool_radius_m: args.tool_radius,
         max_force_n: args.max_force,
         trace_capacity,
+        passivity_control: !args.no_passivity_control,
     };
     let name = device.info().name.clone();
     let limit = match seconds {
