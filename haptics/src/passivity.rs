@@ -215,7 +215,7 @@ mod tests {
         let fig = po.figures();
         assert!((fig.dissipated_j - 1e-3).abs() < 1e-15, "{fig:?}");
         assert!((fig.observed_energy_j + 1e-3).abs() < 1e-15, "{fig:?}");
-        assert_eq!(fig.controller_ticks, 1);
+        assert_eq!(fig.controller_ticks, 2, "and it acts again on that new deficit");
     }
 
     #[test]

@@ -150,7 +150,7 @@ impl SimulatedDevice {
 
     /// Integrates `dt_s` seconds under the force last written.
     pub fn advance(&mut self, dt_s: f64) {
-        if !(dt_s > 0.0) {
+        if dt_s.is_nan() || dt_s <= 0.0 {
             return;
         }
         let steps = (dt_s / SIMULATED_SUBSTEP_S).ceil().max(1.0);
