@@ -8,6 +8,8 @@
 //!
 //! Figures: `cargo test -p lamina-haptics --test passivity -- --nocapture`.
 
+mod common;
+
 use lamina_haptics::PassivityObserver;
 use lamina_haptics::device::{DeviceDynamics, Hand, HapticDevice, SimulatedDevice};
 
@@ -392,4 +394,62 @@ fn press_at_the_living_limb_stiffness_gains_no_energy_works() {
     }
     let light = press(Tissue::Wall, hands[1].1, false);
     assert!(light.hold_ticks_out > 100, "the light grip bounces off the wall without the controller: {light:?}");
+}
+
+/// `lamina-haptics --device simulated:FILE.csv` against a stand-in core's 30 kN/m wall: the
+/// grip presses the handle 8 mm in and lets go; the report's passivity figures add up (the
+/// observed energy is what the hand gave less what it got) and the summary says them. Bad
+/// `--device-args` are refused naming the key, the value and the range.
+#[test]
+fn simulated_device_process_reports_its_passivity_figures_works() {
+    use common::{WallCore, haptics, prefix, scratch, stderr, stdout};
+    let dir = scratch();
+    let csv = dir.join("simulated_press.csv");
+    std::fs::write(&csv, "t_s,x_m,y_m,z_m\n0,0,0,0.005\n1.0,0,0,-0.008\n1.5,0,0,-0.008\n2.0,0,0,0.005\n").unwrap();
+    let device = format!("simulated:{}", csv.display());
+    let p = prefix("simulated");
+    let report = dir.join(format!("{p}.json"));
+    let core = WallCore::start(&p, STIFF_TISSUE);
+    let r = report.display().to_string();
+    let out = haptics(&[
+        "--prefix",
+        &p,
+        "--device",
+        &device,
+        "--device-args",
+        "grip_n_per_m=1000,grip_n_s_per_m=10",
+        "--origin",
+        "0,0,0",
+        "--seconds",
+        "2.2",
+        "--quiet",
+        "--report",
+        &r,
+    ]);
+    drop(core);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("passivity: energy to the hand"), "{}", stdout(&out));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let f = |k: &str| json["passivity"][k].as_f64().unwrap_or_else(|| panic!("passivity.{k} in {json}"));
+    assert_eq!(json["passivity"]["controller_on"], true);
+    let (to, from, observed, lowest) =
+        (f("energy_to_hand_j"), f("energy_from_hand_j"), f("observed_energy_j"), f("min_observed_energy_j"));
+    eprintln!(
+        "simulated press on a 30 kN/m wall: to the hand {to:.4e} J, from it {from:.4e} J, lowest observed {lowest:.3e} J, dissipated {:.3e} J in {} ticks",
+        f("dissipated_j"),
+        json["passivity"]["controller_ticks"]
+    );
+    assert!(to > 0.0 && from > 0.0, "the grip pressed and the wall pushed back: {json}");
+    assert!((observed - (from - to)).abs() <= 1e-9 * from, "observed {observed} J, from − to {} J", from - to);
+    assert!(lowest <= observed.min(0.0), "the lowest ({lowest} J) is at most the end and 0");
+    for (arg, want) in [
+        ("mass_kg=0", "mass_kg '0' must be a number above 0 to 100 kg"),
+        ("grip_n_per_m=-1", "grip_n_per_m '-1' must be a number from 0 to 1e6 N/m"),
+        ("damping_n_s_per_m=nan", "damping_n_s_per_m 'nan' must be a number from 0 to 10000 N s/m"),
+        ("stiffness=3", "unknown 'stiffness'"),
+    ] {
+        let out = haptics(&["--device", &device, "--device-args", arg, "--origin", "0,0,0", "--seconds", "0.1"]);
+        assert_eq!(out.status.code(), Some(2), "{arg} is refused");
+        assert!(stderr(&out).contains(want), "{arg}: {}", stderr(&out));
+    }
 }
