@@ -274,6 +274,7 @@ pub fn run_device_loop(
         if let Some(kind) = event {
             emit(info.tick, kind);
         }
+        passivity.set_gain(out.gain);
         let force = passivity.tick(pose_ok.then_some(state.position_m), render_ns, out.force_n, limits.max_force_n);
         let start = timed(DeviceCall::WriteForce);
         let wrote = device.write_force(force);

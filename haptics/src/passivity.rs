@@ -80,6 +80,8 @@ pub struct PassivityObserver {
     last_force: [f64; 3],
     last_damper: [f64; 3],
     figures: PassivityFigures,
+    /// The renderer's gain for the coming tick, 0 to 1.
+    gain: f64,
 }
 
 impl PassivityObserver {
@@ -94,7 +96,14 @@ impl PassivityObserver {
             last_force: [0.0; 3],
             last_damper: [0.0; 3],
             figures: PassivityFigures { controller_on, ..PassivityFigures::default() },
+            gain: 1.0,
         }
+    }
+
+    /// Sets the renderer's staleness and onset gain for the next [`tick`](Self::tick)'s
+    /// damper (clamped to 0..=1; NaN is 0).
+    pub fn set_gain(&mut self, gain: f64) {
+        self.gain = if gain.is_nan() { 0.0 } else { gain.clamp(0.0, 1.0) };
     }
 
     /// The observed energy `E` now, J.
@@ -111,7 +120,10 @@ impl PassivityObserver {
     /// when it is not usable), `now_ns` its time, `rendered_n` the force the renderer asks for
     /// (N, device frame, finite), `max_force_n` the force limit. Books the work of the force
     /// held since the previous tick, and returns the force to command: `rendered_n` plus the
-    /// controller's damper, within `max_force_n`.
+    /// controller's damper, within `max_force_n`. The damper is scaled by the renderer's
+    /// staleness and onset gain (`RenderedForce::gain`, 0 to 1, set with
+    /// [`set_gain`](Self::set_gain); 1 until set), so that the zero force of a quiet core
+    /// stays zero.
     pub fn tick(&mut self, pose: Option<[f64; 3]>, now_ns: u64, rendered_n: [f64; 3], max_force_n: f64) -> [f64; 3] {
         let Some(x) = pose.filter(|p| p.iter().all(|c| c.is_finite())) else {
             // No pose: the work over this tick cannot be known; start a new chain.
@@ -147,7 +159,7 @@ impl PassivityObserver {
             if dx2 > 0.0 {
                 // α = −E / (Δt |v|²) with v = Δx / Δt.
                 let wanted = -self.energy_j * dt / dx2;
-                let alpha = wanted.min(self.max_damping_n_s_per_m);
+                let alpha = wanted.min(self.max_damping_n_s_per_m) * self.gain;
                 if alpha > 0.0 {
                     self.figures.controller_ticks += 1;
                     if wanted > self.max_damping_n_s_per_m {
@@ -252,5 +264,18 @@ mod tests {
         assert_eq!((fig.observed_energy_j, fig.unobserved_ticks), (0.0, 1), "{fig:?}");
         let f = po.tick(Some([0.0, 0.0, f64::NAN]), 3 * T, [1.0, 0.0, 0.0], 10.0);
         assert_eq!((f, po.figures().unobserved_ticks), ([1.0, 0.0, 0.0], 2));
+    }
+
+    #[test]
+    fn controller_leaves_a_quiet_cores_zero_force_at_zero_works() {
+        let mut po = PassivityObserver::new(100.0, true);
+        po.tick(Some([0.0; 3]), 0, [0.0, 0.0, 1.0], 10.0);
+        po.set_gain(0.0);
+        let f = po.tick(Some([0.0, 0.0, 0.001]), T, [0.0; 3], 10.0);
+        assert_eq!(f, [0.0; 3], "a deficit (E = −1 mJ) but the core is quiet");
+        po.set_gain(0.5);
+        let f = po.tick(Some([0.0, 0.0, 0.002]), 2 * T, [0.0; 3], 10.0);
+        // E = −1 mJ, v = 4 m/s: α = 0.25 N s/m at full gain, half of it here.
+        assert!((f[2] + 0.5 * 0.25 * 4.0).abs() < 1e-12, "{f:?}");
     }
 }

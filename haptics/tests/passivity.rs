@@ -296,6 +296,7 @@ fn press(tissue: Tissue, hand: Option<(DeviceDynamics, f64, f64)>, controller: b
             sent = Some(mapping.to_model(x));
         }
         let rendered = renderer.render(x, n * T_NS);
+        po.set_gain(rendered.gain);
         let f = po.tick(Some(x), n * T_NS, rendered.force_n, limits.max_force_n);
         out.max_force = out.max_force.max(f.iter().map(|c| c * c).sum::<f64>().sqrt());
         if (hold_from..hold_to).contains(&t) {
