@@ -8,6 +8,7 @@ use hdrhistogram::Histogram;
 use lamina_rt::{DeadlineMonitor, FixedRateLoop, MonitorConfig, MonotonicClock, OverrunPolicy, RunLimit};
 
 use super::mapping::DeviceMapping;
+use super::passivity::{PassivityFigures, PassivityObserver};
 use super::renderer::{ForceRenderer, RenderLimits};
 use super::safety::{SafetyCounts, SafetyEvent, SafetyEventKind};
 use crate::device::{DeviceError, HapticDevice, LimitClamp, norm3, within_ceilings};
@@ -36,6 +37,9 @@ pub struct HapticsConfig {
     pub max_force_n: Option<f64>,
     /// Rows of the per-tick trace kept in memory (allocated before the loop). Default 0.
     pub trace_capacity: usize,
+    /// Whether the passivity controller damps the energy the rendering would create
+    /// ([`PassivityObserver`]); the observer measures either way. Default true.
+    pub passivity_control: bool,
 }
 
 impl Default for HapticsConfig {
@@ -48,6 +52,7 @@ impl Default for HapticsConfig {
             blade_length_m: 0.0,
             max_force_n: None,
             trace_capacity: 0,
+            passivity_control: true,
         }
     }
 }
@@ -77,6 +82,8 @@ pub struct HapticsReport {
     pub core_to_device_ns: Histogram<u64>,
     /// Safety counters.
     pub safety: SafetyCounts,
+    /// The passivity observer's energy figures.
+    pub passivity: PassivityFigures,
     /// Tool commands sent to the core.
     pub commands_sent: u64,
     /// Failed publishes or receives.
@@ -138,7 +145,8 @@ pub fn check_force_cap(cap_n: f64, device_limit_n: f64) -> Result<(), String> {
 /// Runs the device loop until `limit`, then commands zero force and returns the report.
 ///
 /// Per tick: sample the device; publish the pose (model frame) on `tool`; take the newest
-/// `feedback`; render and command the force. A device error ends the loop (the error is in
+/// `feedback`; render the force, pass it through the passivity observer and controller
+/// ([`PassivityObserver`]) and command it. A device error ends the loop (the error is in
 /// the report, the core is untouched). Safety events go to `events` without blocking.
 ///
 /// The device's limits are held to its class ceilings ([`within_ceilings`]) before anything
@@ -186,6 +194,10 @@ pub fn run_device_loop(
         limits.max_force_n = cap;
     }
     let mut renderer = ForceRenderer::new(limits, cfg.mapping);
+    // The controller's damper and the renderer's coupling damping together stay within the
+    // device's damping ceiling.
+    let pc_damping = (info.max_damping_n_s_per_m - limits.damping_n_s_per_m).max(0.0);
+    let mut passivity = PassivityObserver::new(pc_damping, cfg.passivity_control);
     let mut monitor = DeadlineMonitor::new(MonitorConfig::for_period_ns(lp.period_ns()));
     // The tool command's publish is the tick's send time (the report's `loop.send`).
     let probe = monitor.send_probe();
@@ -266,12 +278,15 @@ pub fn run_device_loop(
         }
         let finite = state.position_m.iter().chain(state.orientation.iter()).all(|v| v.is_finite());
         let position = if finite { state.position_m } else { [f64::NAN; 3] };
-        let (out, event) = renderer.render_with_event(position, now_ns());
+        let render_ns = now_ns();
+        let (out, event) = renderer.render_with_event(position, render_ns);
         if let Some(kind) = event {
             emit(info.tick, kind);
         }
+        passivity.set_gain(out.gain);
+        let force = passivity.tick(pose_ok.then_some(state.position_m), render_ns, out.force_n, limits.max_force_n);
         let start = timed(DeviceCall::WriteForce);
-        let wrote = device.write_force(out.force_n);
+        let wrote = device.write_force(force);
         if let Some(kind) = done(&mut renderer, DeviceCall::WriteForce, start) {
             emit(info.tick, kind);
         }
@@ -283,12 +298,12 @@ pub fn run_device_loop(
         if let Some(p) = fresh_publish_ns {
             let _ = latency.record(written.saturating_sub(p).max(1));
         }
-        max_force = max_force.max(norm3(out.force_n));
+        max_force = max_force.max(norm3(force));
         if trace.len() < trace.capacity() {
             trace.push(TraceRow {
                 time_ns: written,
                 position_dev_m: state.position_m,
-                force_dev_n: out.force_n,
+                force_dev_n: force,
                 gain: out.gain,
                 in_contact: out.in_contact,
                 core_tick,
@@ -306,6 +321,7 @@ pub fn run_device_loop(
         monitor,
         core_to_device_ns: latency,
         safety,
+        passivity: *passivity.figures(),
         commands_sent,
         port_failures,
         max_force_n: max_force,

@@ -12,8 +12,11 @@
 //!    contact, coupling damping, and a fade to zero when the core goes quiet.
 //! 3. [`run_device_loop`] runs it on absolute deadlines with a deadline monitor, and measures
 //!    core-to-device latency.
-//! 4. [`SafetyEvent`]s leave the loop over a bounded channel to be logged elsewhere.
-//! 5. Whatever a device reports, its limits are held to the ceilings of its class
+//! 4. [`PassivityObserver`] books the energy the commanded force gives the hand (Hannaford
+//!    and Ryu's time-domain passivity observer) and damps whatever the rendering would
+//!    create.
+//! 5. [`SafetyEvent`]s leave the loop over a bounded channel to be logged elsewhere.
+//! 6. Whatever a device reports, its limits are held to the ceilings of its class
 //!    ([`device::within_ceilings`]); a pose beyond its workspace and a device call longer than
 //!    [`watchdog::DEVICE_CALL_LIMIT_NS`] are faults that take the force to zero.
 //!
@@ -28,6 +31,7 @@ pub mod core_model;
 pub mod device;
 mod device_loop;
 mod mapping;
+mod passivity;
 mod renderer;
 pub mod run_context;
 mod safety;
@@ -35,5 +39,6 @@ pub mod watchdog;
 
 pub use device_loop::{HapticsConfig, HapticsReport, HapticsStartError, TraceRow, check_force_cap, run_device_loop};
 pub use mapping::DeviceMapping;
+pub use passivity::{PassivityFigures, PassivityObserver};
 pub use renderer::{ForceRenderer, RenderLimits, RenderedForce};
 pub use safety::{SafetyCounts, SafetyEvent, SafetyEventKind};

@@ -15,7 +15,8 @@ use clap::Parser;
 use lamina_bridge::{Bridge, BridgeConfig, ToolKind};
 use lamina_haptics::core_model::wait_for_core_model;
 use lamina_haptics::device::{
-    DeviceError, EmergencyStop, HapticDevice, NullDevice, PluginDevice, ScriptedDevice, Trajectory, within_ceilings,
+    DeviceDynamics, DeviceError, EmergencyStop, Hand, HapticDevice, NullDevice, PluginDevice, ScriptedDevice,
+    SimulatedDevice, Trajectory, within_ceilings,
 };
 use lamina_haptics::run_context::{ModelSeen, RunContext, SceneFile, TopologyWatch};
 use lamina_haptics::watchdog::{CallWatch, DEVICE_CALL_LIMIT_NS};
@@ -31,8 +32,10 @@ struct Args {
     /// Service prefix of the simulation.
     #[arg(long, default_value = lamina_bridge::DEFAULT_PREFIX)]
     prefix: String,
-    /// Device: `null`, `scripted:FILE.csv` (trajectory replay) or `plugin:LIB.so` (a vendor
-    /// wrapper built against haptics/include/lamina_device.h).
+    /// Device: `null`, `scripted:FILE.csv` (trajectory replay), `simulated:FILE.csv` (a handle
+    /// with mass and damping held by a grip that follows the trajectory; --device-args
+    /// mass_kg=, damping_n_s_per_m=, grip_n_per_m=, grip_n_s_per_m=) or `plugin:LIB.so` (a
+    /// vendor wrapper built against haptics/include/lamina_device.h).
     #[arg(long, default_value = "null")]
     device: String,
     /// Argument string handed to a plugin's `lamina_device_open`.
@@ -81,6 +84,10 @@ struct Args {
     /// before the loop.
     #[arg(long)]
     trace_csv: Option<PathBuf>,
+    /// Turn the passivity controller off: the observer still measures the energy the device
+    /// gives the hand, but nothing damps what the rendering creates (for measurements only).
+    #[arg(long)]
+    no_passivity_control: bool,
     /// Pin the device loop to this CPU.
     #[arg(long)]
     cpu: Option<usize>,
@@ -124,10 +131,13 @@ fn open_device(spec: &str, args: &str) -> Result<(Box<dyn HapticDevice>, Option<
     if let Some(path) = path_of("scripted:", "FILE.csv")? {
         return open_scripted(path, args).map_err(|e| e.to_string());
     }
+    if let Some(path) = path_of("simulated:", "FILE.csv")? {
+        return open_simulated(path, args).map_err(|e| e.to_string());
+    }
     if let Some(path) = path_of("plugin:", "PATH/TO/LIB.so")? {
         return open_plugin(path, args).map_err(|e| e.to_string());
     }
-    Err(format!("unknown device '{spec}': use null, scripted:FILE.csv or plugin:LIB.so"))
+    Err(format!("unknown device '{spec}': use null, scripted:FILE.csv, simulated:FILE.csv or plugin:LIB.so"))
 }
 
 /// `v` as a user reads it: scientific notation beyond six digits.
@@ -170,6 +180,59 @@ fn open_scripted(path: &Path, args: &str) -> Result<(Box<dyn HapticDevice>, Opti
             }
         }
     }
+    Ok((Box::new(device), Some(duration)))
+}
+
+/// Largest simulated mass, kg; largest simulated damping or grip damping, N s/m; largest grip
+/// stiffness, N/m.
+const SIM_MAX_MASS_KG: f64 = 100.0;
+const SIM_MAX_DAMPING: f64 = 1e4;
+const SIM_MAX_GRIP: f64 = 1e6;
+
+/// A simulated device whose grip follows the trajectory at `path`; `args` may set `mass_kg`
+/// (default 0.2, above 0 and at most 100), `damping_n_s_per_m` (0.05), `grip_n_per_m` (400) and
+/// `grip_n_s_per_m` (3), each from 0 to its bound.
+fn open_simulated(path: &Path, args: &str) -> Result<(Box<dyn HapticDevice>, Option<f64>), DeviceError> {
+    let trajectory = Trajectory::load(path)?;
+    let duration = trajectory.duration_s();
+    let start = trajectory.position_at(0.0);
+    let mut dynamics = DeviceDynamics::default();
+    let (mut grip_k, mut grip_b) = (400.0, 3.0);
+    let bad = |what: String| DeviceError::Script { file: path.display().to_string(), line: 0, what };
+    for arg in args.split([',', ' ']).filter(|a| !a.is_empty()) {
+        let Some((key, value)) = arg.split_once('=') else {
+            return Err(bad(format!("--device-args: '{arg}': expected KEY=VALUE")));
+        };
+        let (slot, low_open, max, unit) = match key {
+            "mass_kg" => (&mut dynamics.mass_kg, true, SIM_MAX_MASS_KG, "kg"),
+            "damping_n_s_per_m" => (&mut dynamics.damping_n_s_per_m, false, SIM_MAX_DAMPING, "N s/m"),
+            "grip_n_per_m" => (&mut grip_k, false, SIM_MAX_GRIP, "N/m"),
+            "grip_n_s_per_m" => (&mut grip_b, false, SIM_MAX_DAMPING, "N s/m"),
+            _ => {
+                return Err(bad(format!(
+                    "--device-args: unknown '{key}' (simulated devices take mass_kg, damping_n_s_per_m, grip_n_per_m, grip_n_s_per_m)"
+                )));
+            }
+        };
+        let v = value.parse::<f64>().ok().filter(|v| v.is_finite());
+        match v {
+            Some(v) if (if low_open { v > 0.0 } else { v >= 0.0 }) && v <= max => *slot = v,
+            _ => {
+                let low = if low_open { "above 0" } else { "from 0" };
+                return Err(bad(format!(
+                    "--device-args: {key} '{value}' must be a number {low} to {} {unit}",
+                    show(max)
+                )));
+            }
+        }
+    }
+    let hand = Hand {
+        grip_stiffness_n_per_m: grip_k,
+        grip_damping_n_s_per_m: grip_b,
+        anchor: Some(trajectory),
+        ..Hand::default()
+    };
+    let device = SimulatedDevice::new(SimulatedDevice::default_info(), dynamics, hand).starting_at(start, [0.0; 3]);
     Ok((Box::new(device), Some(duration)))
 }
 
@@ -244,6 +307,19 @@ fn print_report(r: &HapticsReport, rate_hz: u32, device: &str) {
         r.device_class,
         if clamps.is_empty() { "reported limits within its ceilings".to_string() } else { clamps.join("; ") }
     );
+    let p = &r.passivity;
+    println!(
+        "  passivity: energy to the hand {:.4e} J, from the hand {:.4e} J; observed energy {:.4e} J (lowest {:.4e} J); controller {}: dissipated {:.4e} J in {} tick(s), {} at the damping ceiling; ticks without a pose {}",
+        p.energy_to_hand_j,
+        p.energy_from_hand_j,
+        p.observed_energy_j,
+        p.min_observed_energy_j,
+        if p.controller_on { "on" } else { "off" },
+        p.dissipated_j,
+        p.controller_ticks,
+        p.controller_saturated_ticks,
+        p.unobserved_ticks
+    );
     println!("  tool commands sent {}, port failures {}", r.commands_sent, r.port_failures);
 }
 
@@ -276,6 +352,7 @@ fn report_json(r: &HapticsReport, c: &ReportContext) -> serde_json::Value {
             "max_ns": if l.is_empty() { 0 } else { l.max() },
         },
         "safety": r.safety,
+        "passivity": r.passivity,
         "max_force_n": r.max_force_n,
         "limits": {
             "max_force_n": r.limits.max_force_n,
@@ -525,6 +602,7 @@ fn run(args: &Args) -> anyhow::Result<bool> {
         blade_length_m: args.blade_length_mm * 1e-3,
         max_force_n: args.max_force,
         trace_capacity,
+        passivity_control: !args.no_passivity_control,
     };
     let name = device.info().name.clone();
     let limit = match seconds {

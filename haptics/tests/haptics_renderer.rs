@@ -231,7 +231,7 @@ fn renderer_wall_with_late_core_ticks_is_passive_works() {
 
 /// A device that reports 1e308 N, N/m and N s/m (a lying plugin) pressing 8 mm into a wall
 /// of 1e6 N/m, moving at 4 cm/s: every force rendered is finite and at most the ceiling of
-/// the device's class (3.3 N for a PHANTOM Omni), and the press reaches it.
+/// the device's class (0.88 N for a PHANTOM Omni), and the press reaches it.
 #[test]
 fn renderer_with_huge_reported_limits_holds_an_8mm_press_to_the_class_ceiling_works() {
     let lying = DeviceInfo {
@@ -244,7 +244,7 @@ fn renderer_with_huge_reported_limits_holds_an_8mm_press_to_the_class_ceiling_wo
     let (held, clamps) = within_ceilings(&lying);
     assert_eq!(
         clamps.iter().map(|c| (c.limit, c.reported, c.ceiling)).collect::<Vec<_>>(),
-        [("max force", 1e308, 3.3), ("max stiffness", 1e308, 700.0), ("max damping", 1e308, 5.0)]
+        [("max force", 1e308, 0.88), ("max stiffness", 1e308, 1020.0), ("max damping", 1e308, 5.0)]
     );
     let limits = RenderLimits { onset_ns: 0, ..RenderLimits::for_device(&held, PERIOD_NS) };
     let map = DeviceMapping::y_up_model([0.0; 3]);
@@ -268,8 +268,8 @@ fn renderer_with_huge_reported_limits_holds_an_8mm_press_to_the_class_ceiling_wo
         assert!(f.iter().all(|c| c.is_finite()), "tick {tick}: {f:?}");
         max_f = max_f.max(norm(f));
     }
-    assert!(max_f <= 3.3 + 1e-12, "an 8 mm press commanded {max_f} N, above the 3.3 N ceiling");
-    assert!(max_f > 3.3 - 1e-9, "the press (8 kN asked) reaches the ceiling: {max_f} N");
+    assert!(max_f <= 0.88 + 1e-12, "an 8 mm press commanded {max_f} N, above the 0.88 N ceiling");
+    assert!(max_f > 0.88 - 1e-9, "the press (8 kN asked) reaches the ceiling: {max_f} N");
     assert!(r.counts.stiffness_limited > 0 && r.counts.force_clamped_ticks > 0);
 }
 

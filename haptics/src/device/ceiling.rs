@@ -1,10 +1,13 @@
 //! Absolute ceilings on what a device may be asked to do, per device class.
 //!
 //! A device (or a plugin) reports its own limits in [`DeviceInfo`]; the haptics process never
-//! uses more than the ceiling of the device's class, whatever it reports. The figures are the
-//! device specifications of CHAI3D 3.2 (`src/devices/CPhantomDevices.cpp` and
-//! `src/devices/CDeltaDevices.cpp`, the values CHAI3D itself renders with); the table with its
-//! sources is in `docs/haptics.md`. A device whose name matches no class gets
+//! uses more than the ceiling of the device's class, whatever it reports. The force ceiling is
+//! the force a device holds continuously (a press is held for seconds), not its peak. The
+//! Touch family's and the omega's figures are the vendors' data sheets (3D Systems Touch and
+//! Touch X, Force Dimension omega.3: continuous force, and the stiffness of the device's
+//! softest axis); the others are the device specifications of CHAI3D 3.2
+//! (`src/devices/CPhantomDevices.cpp` and `src/devices/CDeltaDevices.cpp`, the values CHAI3D
+//! itself renders with). The table with its sources is in `docs/haptics.md`. A device whose name matches no class gets
 //! [`UNLISTED`], the ceilings of a Force Dimension omega.3 (CHAI3D's default for a device it
 //! cannot identify).
 
@@ -32,24 +35,27 @@ pub const DEVICE_CLASSES: &[DeviceClass] = &[
     DeviceClass {
         name: "PHANTOM Desktop / Touch X",
         matches: &["touch x", "phantom desktop"],
-        max_force_n: 7.9,
-        max_stiffness_n_per_m: 1000.0,
+        // Data sheet: 7.9 N peak, 1.75 N continuous; stiffness 1.86 / 2.35 / 1.48 N/mm (x, y, z).
+        max_force_n: 1.75,
+        max_stiffness_n_per_m: 1480.0,
         max_damping_n_s_per_m: 5.0,
         workspace_radius_m: 0.10,
     },
     DeviceClass {
         name: "PHANTOM Omni",
         matches: &["omni"],
-        max_force_n: 3.3,
-        max_stiffness_n_per_m: 700.0,
+        // The Touch's mechanism: 3.3 N peak, 0.88 N continuous; 1.26 / 2.31 / 1.02 N/mm.
+        max_force_n: 0.88,
+        max_stiffness_n_per_m: 1020.0,
         max_damping_n_s_per_m: 5.0,
         workspace_radius_m: 0.10,
     },
     DeviceClass {
         name: "Touch",
         matches: &["touch"],
-        max_force_n: 3.3,
-        max_stiffness_n_per_m: 400.0,
+        // Data sheet: 3.3 N peak, 0.88 N continuous; stiffness 1.26 / 2.31 / 1.02 N/mm.
+        max_force_n: 0.88,
+        max_stiffness_n_per_m: 1020.0,
         max_damping_n_s_per_m: 4.0,
         workspace_radius_m: 0.075,
     },
@@ -88,8 +94,9 @@ pub const DEVICE_CLASSES: &[DeviceClass] = &[
     DeviceClass {
         name: "Force Dimension omega.x",
         matches: &["omega"],
+        // Data sheet (omega.3): 12 N continuous; closed-loop stiffness 14.5 N/mm.
         max_force_n: 12.0,
-        max_stiffness_n_per_m: 5000.0,
+        max_stiffness_n_per_m: 14_500.0,
         max_damping_n_s_per_m: 30.0,
         workspace_radius_m: 0.075,
     },
@@ -123,8 +130,8 @@ impl DeviceClass {
     /// ```
     /// use lamina_haptics::device::DeviceClass;
     ///
-    /// assert_eq!(DeviceClass::of("SensAble PHANTOM Omni").max_force_n, 3.3);
-    /// assert_eq!(DeviceClass::of("3D Systems Touch X").max_force_n, 7.9);
+    /// assert_eq!(DeviceClass::of("SensAble PHANTOM Omni").max_force_n, 0.88);
+    /// assert_eq!(DeviceClass::of("3D Systems Touch X").max_force_n, 1.75);
     /// assert_eq!(DeviceClass::of("my bench rig").name, "unlisted device");
     /// ```
     pub fn of(name: &str) -> &'static DeviceClass {
@@ -178,7 +185,7 @@ impl core::fmt::Display for LimitClamp {
 ///     workspace_radius_m: 0.08,
 /// };
 /// let (held, clamps) = within_ceilings(&lying);
-/// assert_eq!(held.max_force_n, 3.3);
+/// assert_eq!(held.max_force_n, 0.88);
 /// assert_eq!((clamps.len(), clamps[0].limit), (1, "max force"));
 /// ```
 pub fn within_ceilings(info: &DeviceInfo) -> (DeviceInfo, Vec<LimitClamp>) {

@@ -12,6 +12,8 @@
 //!   has to handle "no device".
 //! - [`ScriptedDevice`]: replays a push/pull trajectory from a CSV file (the paper's Fig. 12),
 //!   recording every force it was sent.
+//! - [`SimulatedDevice`]: a handle with mass and damping held by a simulated [`Hand`],
+//!   integrating its own dynamics under the commanded force (tests of stability and passivity).
 //! - [`PluginDevice`]: a vendor SDK wrapper (Force Dimension, OpenHaptics, libnifalcon) built
 //!   as a shared library against `haptics/include/lamina_device.h` and loaded at run time.
 //!
@@ -42,6 +44,7 @@ mod error;
 mod null;
 mod plugin;
 mod scripted;
+mod simulated;
 
 pub(crate) use ceiling::norm3;
 pub use ceiling::{DEVICE_CLASSES, DeviceClass, LimitClamp, UNLISTED, show_number, within_ceilings};
@@ -49,6 +52,7 @@ pub use error::DeviceError;
 pub use null::NullDevice;
 pub use plugin::{DEVICE_ABI_VERSION, PluginDevice};
 pub use scripted::{MAX_SCRIPT_S, SCRIPT_REACH_M, ScriptedDevice, Trajectory, TrajectoryPoint};
+pub use simulated::{DeviceDynamics, Hand, SIMULATED_SUBSTEP_S, SimulatedDevice};
 
 /// What a device is and what it can safely do.
 #[derive(Debug, Clone, PartialEq)]
