@@ -131,11 +131,8 @@ impl HapticLink {
                             hand.park(sim);
                         }
                         if let Some((scalpel, dt)) = self.scalpel.as_mut() {
-                            let length = if c.blade_length_m > 0.0 {
-                                c.blade_length_m
-                            } else {
-                                scalpel.settings().blade_length
-                            };
+                            let length =
+                                if c.blade_length_m > 0.0 { c.blade_length_m } else { scalpel.settings().blade_length };
                             scalpel.move_to(sim, Blade::from_pose(c.position, c.orientation, length), *dt);
                         }
                         self.cutting = true;

@@ -4,10 +4,10 @@
 use super::frame_gate::NodeFrameGate;
 use lamina_core::hand_tool::HandTool;
 use lamina_core::incision::Scalpel;
-use lamina_core::solver::FactorSwap;
 use lamina_core::model::Model;
 use lamina_core::real::Real;
 use lamina_core::scene::{OverrunChoice, Precision, STANDBY_DELAY_US, Scene};
+use lamina_core::solver::FactorSwap;
 use lamina_core::solver::{LateBuild, Simulation};
 use lamina_rt::standby::{Grid, run_with_standby};
 use lamina_rt::steal::StealSnapshot;
