@@ -482,3 +482,54 @@ fn core_on_a_model_file_is_felt_without_scene_or_mapping_flags_works() {
     eprintln!("file model: force {half:.4} N at 3 mm, {full:.4} N at 6 mm");
     assert!(half > 0.0 && full > 1.5 * half, "force rises with depth: {half} N at 3 mm, {full} N at 6 mm");
 }
+
+#[test]
+fn scalpel_commands_park_the_sphere_and_unknown_kinds_are_refused_works() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let prefix = unique_prefix("scalpel");
+    let core = start_core(&prefix, 3.0);
+    let bridge = Bridge::open(&BridgeConfig::with_prefix(&prefix)).unwrap();
+    let tool = ToolPublisher::create(&bridge).unwrap();
+    let feedback = FeedbackSubscriber::create(&bridge).unwrap();
+    std::thread::sleep(Duration::from_millis(1200));
+    let origin = device_origin();
+    // 6 mm below the device origin: a sphere there presses the skin.
+    let deep = ToolCommand { position: [origin[0], origin[1] - 0.018, origin[2]], ..ToolCommand::default() };
+    let scalpel = ToolCommand { kind: lamina_bridge::ToolKind::Scalpel.code(), blade_length_m: 0.01, ..deep };
+    let mut contact = [0u64; 2];
+    let (mut sent_scalpel, mut sent_unknown) = (0u64, 0u64);
+    for k in 0..900u64 {
+        // 300 sphere commands, 300 scalpel commands, then the scalpel with unknown kinds
+        // in between (every other command kind 2 or 7).
+        let mut c = if k < 300 { deep } else { scalpel };
+        if k >= 600 && k % 2 == 1 {
+            c.kind = if k % 4 == 1 { 2 } else { 7 };
+            sent_unknown += 1;
+        } else if k >= 300 {
+            sent_scalpel += 1;
+        }
+        c.sequence = k;
+        tool.publish(&c).unwrap();
+        std::thread::sleep(Duration::from_micros(1500));
+        while let Some(s) = feedback.try_receive().unwrap() {
+            // The last 100 commands of each of the first two phases.
+            if (200..300).contains(&k) || (500..600).contains(&k) {
+                contact[usize::from(k >= 300)] += u64::from(s.message().is_in_contact());
+            }
+        }
+    }
+    let (status, core_out, _) = output(core, Duration::from_secs(30), "lamina run");
+    assert!(status.success(), "{core_out}");
+    assert!(contact[0] > 50, "the sphere presses the skin ({} feedback messages in contact)", contact[0]);
+    assert_eq!(contact[1], 0, "the sphere is parked while the scalpel is in use");
+    let line = core_out.lines().find(|l| l.starts_with("haptic link")).expect("haptic link summary");
+    let count = |what: &str| -> u64 {
+        let before = line.split(what).next().unwrap_or_default();
+        before.trim_end().rsplit([' ', ',', '(', ';']).next().and_then(|n| n.parse().ok()).unwrap_or(u64::MAX)
+    };
+    let (scalpels, unknown) = (count(" scalpel commands"), count(" of an unknown tool kind"));
+    // Newest wins: the core reads most commands, never more than were sent.
+    assert!(scalpels > 0 && scalpels <= sent_scalpel, "{line}");
+    assert!(unknown > 0 && unknown <= sent_unknown, "{line}");
+    assert!(count(" refused") >= unknown, "unknown kinds are among the refused: {line}");
+}

@@ -44,6 +44,7 @@ pub const BINDINGS: &[Binding] = &[
     Binding { input: "right or middle drag, shift + left drag", action: "pan" },
     Binding { input: "wheel", action: "zoom toward or away from the centre" },
     Binding { input: "ctrl + left drag", action: "grab the skin under the cursor and pull it (live core)" },
+    Binding { input: "ctrl + shift + left drag", action: "cut the skin along the drag with the scalpel (live core)" },
     Binding { input: "R", action: "reset the view" },
     Binding { input: "1 2 3 4", action: "show or hide layer 1..4 (skin, fat, muscle, bone)" },
     Binding { input: "C", action: "cut plane on or off" },

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use lamina_bridge::ToolKind;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -124,9 +125,18 @@ pub struct WindowOptions {
     pub prefix: Option<String>,
 }
 
-/// A grasp held with ctrl + left drag.
+/// Depth of the scalpel's tip below the picked skin point in a ctrl + shift + left drag, m:
+/// the blade's edge, straight up from the tip, crosses the skin.
+const INCISION_DEPTH_M: f32 = 0.004;
+
+/// Length of the scalpel's edge the viewer sends, m.
+const INCISION_BLADE_M: f64 = 0.01;
+
+/// A grasp held with ctrl + left drag, or the scalpel drawn with ctrl + shift + left drag.
 #[derive(Debug, Clone, Copy)]
 struct Grab {
+    /// The scalpel (an incision) rather than the grasp.
+    scalpel: bool,
     node: u32,
     /// Where the node was when picked, m.
     anchor: glam::Vec3,
@@ -134,6 +144,19 @@ struct Grab {
     normal: glam::Vec3,
     /// Where the grasp point is now, m.
     target: glam::Vec3,
+}
+
+impl Grab {
+    /// The tool this drag holds.
+    fn kind(&self) -> ToolKind {
+        if self.scalpel { ToolKind::Scalpel } else { ToolKind::Sphere }
+    }
+
+    /// Where the tool goes: the grasp point, or the scalpel's tip [`INCISION_DEPTH_M`] below
+    /// it, its edge up through the skin.
+    fn tool_point(&self) -> glam::Vec3 {
+        if self.scalpel { self.target - glam::Vec3::Y * INCISION_DEPTH_M } else { self.target }
+    }
 }
 
 /// The viewer's publisher on the core's `tool` service, opened on the first grab. A thread
@@ -147,8 +170,8 @@ struct ToolPort {
 
 #[derive(Default)]
 struct PortState {
-    /// The grasp point while button 0 is held.
-    held: Option<glam::Vec3>,
+    /// The grasp point while button 0 is held, or the scalpel's tip while it cuts.
+    held: Option<(glam::Vec3, ToolKind)>,
     /// Where to send the tool, button up, once (a release).
     release: Option<glam::Vec3>,
     stop: bool,
@@ -184,12 +207,17 @@ impl ToolPort {
                     }
                 };
                 let (mut sequence, mut sent, mut failures) = (0u64, 0u64, 0u64);
-                let mut send = |position: glam::Vec3, held: bool| {
+                let mut send = |position: glam::Vec3, held: Option<ToolKind>| {
+                    // The scalpel's edge straight up from its tip (identity orientation); a
+                    // release puts the sphere back, out of the tissue.
+                    let scalpel = held == Some(ToolKind::Scalpel);
                     let command = lamina_bridge::ToolCommand {
                         sequence,
                         time_ns: lamina_bridge::now_ns(),
                         position: position.as_dvec3().to_array(),
-                        buttons: u32::from(held),
+                        buttons: u32::from(held == Some(ToolKind::Sphere)),
+                        kind: held.unwrap_or(ToolKind::Sphere).code(),
+                        blade_length_m: if scalpel { INCISION_BLADE_M } else { 0.0 },
                         ..Default::default()
                     };
                     sequence += 1;
@@ -204,13 +232,13 @@ impl ToolPort {
                         Err(_) => (None, None, true),
                     };
                     if let Some(p) = release {
-                        send(p, false);
+                        send(p, None);
                     }
                     if stop {
                         break;
                     }
-                    if let Some(p) = held {
-                        send(p, true);
+                    if let Some((p, kind)) = held {
+                        send(p, Some(kind));
                     }
                     std::thread::sleep(Self::PERIOD);
                 }
@@ -230,9 +258,9 @@ impl ToolPort {
         }
     }
 
-    /// Holds the grasp at `position` (sent now and every period).
-    fn hold(&self, position: glam::Vec3) {
-        self.update(|s| s.held = Some(position));
+    /// Holds the grasp (sphere) or the scalpel's tip at `position` (sent now and every period).
+    fn hold(&self, position: glam::Vec3, kind: ToolKind) {
+        self.update(|s| s.held = Some((position, kind)));
     }
 
     /// Lets go and sends the tool to `position` (button up).
@@ -290,6 +318,8 @@ struct App<'a> {
     grab: Option<Grab>,
     tool: Option<ToolPort>,
     grabs: u64,
+    /// Shift is held (with ctrl + left drag: the scalpel instead of the grasp).
+    shift: bool,
 }
 
 impl App<'_> {
@@ -372,7 +402,7 @@ impl App<'_> {
                 if let (Some(g), Some(ray)) = (self.grab.as_mut(), ray) {
                     g.target = on_plane(&ray, g.anchor, g.normal).unwrap_or(g.target);
                     if let Some(port) = self.tool.as_ref() {
-                        port.hold(g.target);
+                        port.hold(g.tool_point(), g.kind());
                     }
                 }
             }
@@ -384,11 +414,9 @@ impl App<'_> {
                     if let Some(port) = self.tool.as_ref() {
                         port.release(eye);
                     }
-                    println!(
-                        "grab: released node {} after pulling it {:.1} mm",
-                        g.node,
-                        1e3 * (g.target - g.anchor).length()
-                    );
+                    let what = if g.scalpel { "incision: lifted the scalpel" } else { "grab: released node" };
+                    let how = if g.scalpel { "drawing" } else { "pulling" };
+                    println!("{what} {} after {how} it {:.1} mm", g.node, 1e3 * (g.target - g.anchor).length());
                 }
             }
             None => {}
@@ -432,13 +460,18 @@ impl App<'_> {
             }
         }
         let anchor = frame.positions[node as usize];
-        let normal = (camera.target - camera.eye).normalize();
-        self.grab = Some(Grab { node, anchor, normal, target: anchor });
+        // The grasp moves in the plane facing the eye; the scalpel along the skin, in the
+        // level plane through the picked point (the shipped limbs' skin faces +y on top).
+        let scalpel = self.shift;
+        let normal = if scalpel { glam::Vec3::Y } else { (camera.target - camera.eye).normalize() };
+        let grab = Grab { scalpel, node, anchor, normal, target: anchor };
+        self.grab = Some(grab);
         self.grabs += 1;
         if let Some(port) = self.tool.as_ref() {
-            port.hold(anchor);
+            port.hold(grab.tool_point(), grab.kind());
         }
-        println!("grab: skin node {node} at ({:.1}, {:.1}, {:.1}) mm", 1e3 * anchor.x, 1e3 * anchor.y, 1e3 * anchor.z);
+        let what = if scalpel { "incision: scalpel at" } else { "grab:" };
+        println!("{what} skin node {node} at ({:.1}, {:.1}, {:.1}) mm", 1e3 * anchor.x, 1e3 * anchor.y, 1e3 * anchor.z);
     }
 
     fn hud(&self, frame: &Frame) -> Hud {
@@ -619,6 +652,7 @@ impl ApplicationHandler for App<'_> {
                 if event.repeat && toggle { None } else { key_name(&event.logical_key).map(Input::Key) }
             }
             WindowEvent::ModifiersChanged(m) => {
+                self.shift = m.state().shift_key();
                 Some(Input::Modifiers { shift: m.state().shift_key(), ctrl: m.state().control_key() })
             }
             WindowEvent::MouseInput { state, button, .. } => {
@@ -680,6 +714,7 @@ pub fn run(
         grab: None,
         tool: None,
         grabs: 0,
+        shift: false,
     };
     event_loop.run_app(&mut app).map_err(WindowRunError::EventLoop)?;
     if let Some(e) = app.error {
