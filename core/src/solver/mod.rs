@@ -13,6 +13,7 @@ mod dynamics;
 mod effects;
 mod factored_preconditioner;
 mod guard;
+mod idle_priority;
 mod implicit;
 mod implicit_factored;
 pub(crate) mod lane_block;

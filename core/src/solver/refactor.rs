@@ -99,7 +99,7 @@ impl<T: Real> Refactor<T> {
         let mut cut_model = model.clone();
         let order = cut_order.clone();
         std::thread::Builder::new().name("lamina-refactor".into()).spawn(move || {
-            super::multirate::lower_this_threads_priority();
+            super::idle_priority::lower_this_threads_priority();
             let mut inputs = inputs;
             let mut applied = 0;
             while let Ok(cuts) = asks.recv() {
