@@ -8,6 +8,8 @@
 //! when it crosses either triangle (Möller and Trumbore's test, in `f64`). A blade moving
 //! along its own edge (pushed straight in) sweeps no area and crosses nothing.
 
+use crate::generator::vec3::{cross, dot, norm, sub};
+
 /// Below this swept area, m², a sweep cuts nothing (the blade moved along its edge).
 pub const MIN_SWEPT_AREA_M2: f64 = 1e-12;
 
@@ -113,22 +115,6 @@ pub fn segment_crosses_triangle(p: [f64; 3], q: [f64; 3], t: &[[f64; 3]; 3]) -> 
     }
     let along = inv * dot(e2, qv);
     (0.0..=1.0).contains(&along)
-}
-
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-pub(crate) fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 #[cfg(test)]

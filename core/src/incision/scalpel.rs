@@ -31,7 +31,8 @@
 //! takes less (the median of 24 needle studies is 1.22 N; van Gerwen, Dankelman and van den
 //! Dobbelsteen, Med Eng Phys 34:665, 2012).
 
-use super::blade::{Blade, Sweep, cross, dot, norm, segment_crosses_triangle, sub};
+use super::blade::{Blade, Sweep, segment_crosses_triangle};
+use crate::generator::vec3::{cross, dot, norm, sub};
 use crate::model::{Model, Tissue};
 use crate::real::Real;
 use crate::scene::ToolSettings;
