@@ -266,7 +266,7 @@ enum StudyCommand {
     /// scene's tick: springs cut per layer, forces, and how far the wound gapes against a
     /// pre-strained sheet's closed form.
     Incision {
-        /// Scene with a tool and a [scalpel] table.
+        /// Scene with a tool and a `[scalpel]` table.
         #[arg(long, default_value = "config/scenes/incision.toml")]
         scene: PathBuf,
         /// Length of the cut along the limb, mm.
