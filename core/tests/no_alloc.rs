@@ -173,21 +173,27 @@ fn step_loop_allocates_nothing_after_warm_up_works() {
         assert_eq!(status.bulk_steps, 1010 / 4 + 1);
         assert_eq!(status.recentres >= 2, slide.is_some(), "{what}: {status:?}");
     }
-    scalpel_counted();
+    scalpel_counted(None);
+    // Multirate: the region cuts inside the tick, the bulk at its exchange, and regions built
+    // without the cut springs are taken like those that follow the tool.
+    let settings = MultirateSettings { centre: [0.0, 0.062, 0.12], radius: 0.05, ratio: 4, ..Default::default() };
+    scalpel_counted(Some(MultirateSettings { build_exchanges: Some(8), late_build: LateBuild::Wait, ..settings }));
     drop(busy);
 }
 
-/// The scalpel on the living limb (`config/scenes/incision.toml`): entering point-first and
-/// drawn 3 cm through skin and fat over 1500 counted ticks, cutting springs and skin
-/// tetrahedra inside the tick; nothing is allocated on any thread.
-fn scalpel_counted() {
+/// The scalpel on the living limb (`config/scenes/incision.toml`), single-rate or with
+/// `multirate`: entering point-first and drawn 3 cm through skin and fat over 1500 counted
+/// ticks, cutting springs and skin tetrahedra inside the tick; nothing is allocated on the
+/// stepping thread.
+fn scalpel_counted(multirate: Option<MultirateSettings>) {
     use lamina_core::hand_tool::HandTool;
     use lamina_core::incision::{Blade, Scalpel};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenes/incision.toml");
     let scene = Scene::load(&path).expect("the incision scene");
     let model = scene.build_model().unwrap();
     let tool = scene.tool.expect("a tool");
-    let (mut sim, _) = HandTool::simulation::<f32>(&model, scene.solver.clone(), scene.effects.clone(), tool).unwrap();
+    let params = lamina_core::solver::IntegrationParameters { multirate, ..scene.solver.clone() };
+    let (mut sim, _) = HandTool::simulation::<f32>(&model, params, scene.effects.clone(), tool).unwrap();
     let mut scalpel = Scalpel::new(&model, &sim, &tool, scene.scalpel.expect("a [scalpel]")).unwrap();
     // Factors of the cut model built on a thread of their own, each taken 50 ticks after it
     // was asked for (the loop waits for it if need be): only this thread is counted.
@@ -214,8 +220,13 @@ fn scalpel_counted() {
     let n = LOOP_ALLOCATIONS.swap(0, Ordering::SeqCst);
     assert_eq!(n, 0, "the scalpel allocated {n} times on the stepping thread");
     assert!(sim.cuts() > 5, "the scalpel cut {} springs", sim.cuts());
-    let built = sim.refactor_status().unwrap();
-    assert!(built.taken >= 1 && built.cuts_in_factor > 0, "{built:?}");
+    match sim.multirate_status() {
+        Some(m) => assert!(m.recentres >= 1 && m.cuts_in_factor > 0 && m.cuts as u64 == sim.cuts(), "{m:?}"),
+        None => {
+            let built = sim.refactor_status().unwrap();
+            assert!(built.taken >= 1 && built.cuts_in_factor > 0, "{built:?}");
+        }
+    }
     assert!(sim.state().x.all_finite());
 }
 

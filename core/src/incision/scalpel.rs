@@ -251,7 +251,7 @@ impl Scalpel {
     /// is sampled for). Checks that `sim` can be cut.
     ///
     /// # Errors
-    /// [`CutError`] when `sim` cannot be cut (not `implicit_factored`, or multirate).
+    /// [`CutError`] when `sim` cannot be cut (not `implicit_factored`).
     pub fn new<T: Real>(
         model: &Model,
         sim: &Simulation<T>,
@@ -358,7 +358,10 @@ impl Scalpel {
                 self.state = BladeState::Outside;
                 self.tip_out_ticks = 0;
                 self.force = [0.0; 3];
+                sim.set_focus(None);
             } else {
+                // A multirate region follows the tip while the sphere tool is off.
+                sim.set_focus(Some(blade.tip));
                 tick.springs_cut = self.cut_swept(sim, &sweep);
                 self.force = self.cutting_force(&sweep, &tick.edge, dt);
                 self.totals.cut_length += norm(sub(blade.tip, last.tip));
@@ -385,6 +388,7 @@ impl Scalpel {
         self.tip_out_ticks = 0;
         self.last = None;
         self.force = [0.0; 3];
+        sim.set_focus(None);
     }
 
     /// The tissue's force on the blade after the last step: the tip's contact while outside,

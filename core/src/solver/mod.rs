@@ -8,6 +8,7 @@ mod bisected_ordering;
 mod build_checks;
 mod build_error;
 mod critical_step;
+mod cut_log;
 mod disjoint;
 mod dynamics;
 mod effects;

@@ -44,6 +44,7 @@
 //! [`Simulation::state_mut`](super::Simulation::state_mut) on nodes outside the region is
 //! overwritten at the next exchange.
 
+use super::cut_log::CutLog;
 use super::dynamics::State;
 use super::effects::{DragHandle, Effects, PointLoad, SphereTool};
 use super::multirate_settings::{DEFER_BUILD_EXCHANGES, LateBuild, MAX_BUILD_EXCHANGES, MultirateSettings};
@@ -107,6 +108,25 @@ pub(crate) struct Partition {
 }
 
 impl Partition {
+    /// Per model spring, its index among the region's model's springs (`u32::MAX` when the
+    /// region does not hold it): [`Partition::region_model`] keeps, in file order, the springs
+    /// with both nodes kept.
+    pub fn region_springs(&self, model: &Model) -> Vec<u32> {
+        let s = &model.springs;
+        let mut next = 0u32;
+        (0..s.len())
+            .map(|k| {
+                let kept = |i: u32| self.local_of[i as usize] != u32::MAX;
+                if kept(s.a[k]) && kept(s.b[k]) {
+                    next += 1;
+                    next - 1
+                } else {
+                    u32::MAX
+                }
+            })
+            .collect()
+    }
+
     /// Splits `model`'s free nodes by `settings`' sphere.
     pub fn of(model: &Model, settings: &MultirateSettings) -> Self {
         let n = model.nodes.len();
@@ -271,10 +291,15 @@ pub(crate) struct Layout {
     /// model and in the model.
     ring_local: Vec<u32>,
     ring_model: Vec<u32>,
+    /// Per model spring, its index in the region's model (`u32::MAX` when not there).
+    spring_local: Vec<u32>,
+    /// The cuts (the first ones of the [`CutLog`]) the region's simulation was built with,
+    /// its factor among them.
+    cuts_built: usize,
 }
 
 impl Layout {
-    fn new(partition: Partition, sphere: Sphere) -> Self {
+    fn new(partition: Partition, sphere: Sphere, spring_local: Vec<u32>, cuts_built: usize) -> Self {
         let local = |nodes: &[u32]| nodes.iter().map(|&i| partition.local_of[i as usize]).collect();
         let (inner_local, core_local) = (local(&partition.inner), local(&partition.core));
         let overlap_local = local(&partition.overlap);
@@ -284,7 +309,17 @@ impl Layout {
             .filter(|&&i| partition.local_of[i as usize] != u32::MAX)
             .map(|&i| (partition.local_of[i as usize], i))
             .unzip();
-        Self { sphere, partition, inner_local, core_local, overlap_local, ring_local, ring_model }
+        Self {
+            sphere,
+            partition,
+            inner_local,
+            core_local,
+            overlap_local,
+            ring_local,
+            ring_model,
+            spring_local,
+            cuts_built,
+        }
     }
 
     /// `effects` (model node indices) in the region's node indices, into `into`: loads and
@@ -303,6 +338,11 @@ impl Layout {
         into.handles.clear();
         into.handles.reserve(effects.handles.capacity());
         into.handles.extend(effects.handles.iter().filter_map(|h| Some(DragHandle { node: local(h.node)?, ..*h })));
+    }
+
+    /// Model spring `spring`'s index in the region's model, when the region holds it.
+    fn region_spring(&self, spring: usize) -> Option<usize> {
+        self.spring_local.get(spring).filter(|&&l| l != u32::MAX).map(|&l| l as usize)
     }
 
     fn region_index(&self, i: usize) -> Option<usize> {
@@ -328,6 +368,8 @@ pub(crate) struct RegionBuilder {
     /// after them (the same tissue; `implicit_factored` has no critical step).
     known_stability: super::critical_step::StabilityEstimate,
     known_bulk_stability: super::critical_step::StabilityEstimate,
+    /// The springs cut so far, which regions and bulks built here are built without.
+    log: Arc<CutLog>,
 }
 
 /// A region built about a new centre, on its way to the loop's thread; on its way back, the
@@ -342,6 +384,8 @@ pub(crate) struct Relocation<T: Real> {
 pub(crate) struct Built<T: Real> {
     relocation: Relocation<T>,
     bulk: super::Simulation<T>,
+    /// The cuts (the first ones of the log) both were built with.
+    cuts: usize,
 }
 
 impl RegionBuilder {
@@ -363,19 +407,24 @@ impl RegionBuilder {
             settings,
             known_stability: first.stability(),
             known_bulk_stability: first_bulk.stability(),
+            // The coupling's own, given at its start.
+            log: Arc::new(CutLog::with_capacity(0)),
         }
     }
 
     /// The region `sphere` asks for and its simulation at rest, its loads and handles lists
-    /// holding at least `capacity` (loads, handles) entries, and the bulk holding its core.
+    /// holding at least `capacity` (loads, handles) entries, and the bulk holding its core;
+    /// both without the first `cuts` springs of the log, factored so.
     pub fn build<T: Real>(
         &self,
         sphere: Sphere,
         capacity: (usize, usize),
+        cuts: usize,
     ) -> Result<Built<T>, super::SimulationBuildError> {
         let settings = MultirateSettings { centre: sphere.centre, radius: sphere.radius, ..self.settings };
-        let relocation =
-            build_region(&self.model, &self.params, &self.effects, &settings, capacity, Some(self.known_stability))?;
+        let cut: Vec<usize> = self.log.springs(0, cuts).collect();
+        let known = Some(self.known_stability);
+        let relocation = build_region(&self.model, &self.params, &self.effects, &settings, capacity, known, &cut)?;
         let bulk = build_bulk(
             &self.model,
             &relocation.layout.partition,
@@ -383,14 +432,16 @@ impl RegionBuilder {
             &self.effects,
             capacity,
             Some(self.known_bulk_stability),
+            &cut,
         )?;
-        Ok(Built { relocation, bulk })
+        Ok(Built { relocation, bulk, cuts })
     }
 }
 
 /// The region of `model` about `settings.centre` and its simulation at rest (`params`, the
 /// region's; `effects` in model node indices), its loads and handles lists holding at least
-/// `capacity` (loads, handles) entries; `known` skips the stiffest-mode estimate.
+/// `capacity` (loads, handles) entries; `known` skips the stiffest-mode estimate. The model
+/// springs `cut` are cut in it and its factor is the cut model's.
 pub(crate) fn build_region<T: Real>(
     model: &Model,
     params: &super::IntegrationParameters,
@@ -398,21 +449,27 @@ pub(crate) fn build_region<T: Real>(
     settings: &MultirateSettings,
     capacity: (usize, usize),
     known: Option<super::critical_step::StabilityEstimate>,
+    cut: &[usize],
 ) -> Result<Relocation<T>, super::SimulationBuildError> {
     let partition = Partition::of(model, settings);
     partition.check(settings).map_err(super::SimulationBuildError::Multirate)?;
     let region_model = partition.region_model(model);
-    let layout = Layout::new(partition, Sphere { centre: settings.centre, radius: settings.radius });
+    let spring_local = partition.region_springs(model);
+    let layout =
+        Layout::new(partition, Sphere { centre: settings.centre, radius: settings.radius }, spring_local, cut.len());
     let mut region_effects = effects_with_room(effects, capacity);
     layout.map_effects(effects, &mut region_effects);
-    let region = super::Simulation::new_single_rate_with(&region_model, params.clone(), region_effects, known)?;
+    let mut region = super::Simulation::new_single_rate_with(&region_model, params.clone(), region_effects, known)?;
+    let local_cut: Vec<usize> = cut.iter().filter_map(|&s| layout.region_spring(s)).collect();
+    region.cut_and_refactor(&region_model, &local_cut)?;
     Ok(Relocation { layout, region })
 }
 
 /// The bulk's simulation of `model` at rest with `partition`'s core held
 /// ([`Partition::bulk_model`]); `params` the bulk's, its loads and handles lists holding at
 /// least `capacity` (loads, handles) entries (each exchange copies the caller's into them);
-/// `known` skips the stiffest-mode estimate.
+/// `known` skips the stiffest-mode estimate. The model springs `cut` are cut in it and its
+/// factor is the cut model's.
 pub(crate) fn build_bulk<T: Real>(
     model: &Model,
     partition: &Partition,
@@ -420,9 +477,13 @@ pub(crate) fn build_bulk<T: Real>(
     effects: &Effects,
     capacity: (usize, usize),
     known: Option<super::critical_step::StabilityEstimate>,
+    cut: &[usize],
 ) -> Result<super::Simulation<T>, super::SimulationBuildError> {
     let bulk_effects = effects_with_room(effects, capacity);
-    super::Simulation::new_single_rate_with(&partition.bulk_model(model), params.clone(), bulk_effects, known)
+    let bulk_model = partition.bulk_model(model);
+    let mut bulk = super::Simulation::new_single_rate_with(&bulk_model, params.clone(), bulk_effects, known)?;
+    bulk.cut_and_refactor(&bulk_model, cut)?;
+    Ok(bulk)
 }
 
 /// A copy of `effects` whose loads and handles lists have room for `capacity` (loads,
@@ -472,6 +533,9 @@ struct Packet<T: Real> {
     v: Vec3s<T>,
     /// The tool as the region had it at `region_time` (at rest there), for the bulk's step.
     tool: Option<SphereTool>,
+    /// Region to bulk: the cuts made by `region_time` (the first ones of the log), for the
+    /// bulk to cut before its step and for a region asked for here to be built without.
+    cuts: usize,
     /// The caller's loads and handles at `region_time` (model node indices), for the bulk's
     /// step; their capacities, at least the caller's, size the lists of a region built here.
     loads: Vec<PointLoad>,
@@ -552,6 +616,11 @@ pub struct MultirateStatus {
     /// ([`MultirateSettings::build_exchanges`], or the one chosen from the first bulk's build
     /// time).
     pub build_exchanges: u32,
+    /// Springs cut so far ([`Simulation::cut_spring`](super::Simulation::cut_spring)).
+    pub cuts: usize,
+    /// Of those, the cuts the region's factor was built with: a region and a bulk are built
+    /// again about the tool after a cut, off the loop, like a region that follows the tool.
+    pub cuts_in_factor: usize,
 }
 
 /// The region's side of the coupling: the partition, the whole model's state, the bulk's
@@ -595,6 +664,13 @@ pub(crate) struct Multirate<T: Real> {
     quit: Arc<AtomicBool>,
     bulk_thread: Option<JoinHandle<()>>,
     status: MultirateStatus,
+    /// The springs cut, shared with the bulk's and the builder's threads.
+    log: Arc<CutLog>,
+    /// Per model spring: its nodes, and whether it is cut.
+    spring_ends: Vec<[u32; 2]>,
+    cut: Vec<bool>,
+    /// Where the region follows when no sphere tool is on (a scalpel's tip), m.
+    focus: Option<[f64; 3]>,
 }
 
 fn gather<T: Real>(from: &Vec3s<T>, nodes: &[u32], into: &mut Vec3s<T>) {
@@ -645,6 +721,9 @@ impl<T: Real> Multirate<T> {
         effects: Effects,
         cpu: Option<core_affinity::CoreId>,
     ) -> std::io::Result<Self> {
+        // The springs cut, shared with the bulk's thread and the builder.
+        let log = Arc::new(CutLog::with_capacity(model.springs.len()));
+        let builder = builder.map(|b| RegionBuilder { log: Arc::clone(&log), ..b });
         let build_exchanges = settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
         // The bulk steps ratio · dt: one tick less is its real-time share, whatever the
         // jitter of the tick that sent it.
@@ -661,6 +740,7 @@ impl<T: Real> Multirate<T> {
             x: full.x.clone(),
             v: full.v.clone(),
             tool: None,
+            cuts: 0,
             loads: effects.loads.clone(),
             handles: effects.handles.clone(),
             step_ns: 0,
@@ -677,11 +757,12 @@ impl<T: Real> Multirate<T> {
         let thread = {
             let (to_bulk, to_region, quit) = (Arc::clone(&to_bulk), Arc::clone(&to_region), Arc::clone(&quit));
             let lists = BulkLists::of(&layout.partition);
+            let log = Arc::clone(&log);
             std::thread::Builder::new().name("lamina-bulk".into()).spawn(move || {
                 if let Some(cpu) = cpu {
                     core_affinity::set_for_current(cpu);
                 }
-                bulk_loop(bulk, lists, builder.map(Arc::new), &to_bulk, &to_region, &quit);
+                bulk_loop(bulk, lists, builder.map(Arc::new), &log, &to_bulk, &to_region, &quit);
             })?
         };
         let status = MultirateStatus {
@@ -716,7 +797,40 @@ impl<T: Real> Multirate<T> {
             quit,
             bulk_thread: Some(thread),
             status,
+            log,
+            spring_ends: model.springs.a.iter().zip(&model.springs.b).map(|(&a, &b)| [a, b]).collect(),
+            cut: vec![false; model.springs.len()],
+            focus: None,
         })
+    }
+
+    /// Records the cut of model spring `spring` for the bulk and the regions built later;
+    /// returns its index in the region's model when the region holds it (`Some(None)`: the
+    /// bulk's alone), `None` when it cannot be cut (out of range, cut before, or between two
+    /// nodes that never move). Allocates nothing.
+    pub fn record_cut(&mut self, spring: usize) -> Option<Option<usize>> {
+        let [a, b] = *self.spring_ends.get(spring)?;
+        if self.cut[spring] || !(self.node_is_free(a as usize) || self.node_is_free(b as usize)) {
+            return None;
+        }
+        if !self.log.push(spring as u32) {
+            return None;
+        }
+        self.cut[spring] = true;
+        self.status.cuts += 1;
+        Some(self.layout.region_spring(spring))
+    }
+
+    /// The region's springs (its model's indices) cut after the region's simulation was
+    /// built: a region taken at an exchange cuts them before its first tick.
+    pub fn cuts_since_build(&self) -> impl Iterator<Item = usize> + '_ {
+        let l = &self.layout;
+        self.log.springs(l.cuts_built, self.log.len()).filter_map(|s| l.region_spring(s))
+    }
+
+    /// Where the region follows when no sphere tool is on, m (`None`: it stays).
+    pub fn set_focus(&mut self, focus: Option<[f64; 3]>) {
+        self.focus = focus;
     }
 
     /// The caller's effects in the region's node indices (loads and handles on nodes outside
@@ -837,6 +951,7 @@ impl<T: Real> Multirate<T> {
         self.status.centre = self.layout.sphere.centre;
         self.status.radius = self.layout.sphere.radius;
         self.status.recentres += 1;
+        self.status.cuts_in_factor = self.layout.cuts_built;
         self.refused_at = None;
         if let Some(p) = self.packet.as_mut() {
             p.adopted = true;
@@ -857,16 +972,25 @@ impl<T: Real> Multirate<T> {
         gather(&region.v, &self.layout.core_local, &mut packet.core_v);
         packet.relocation = retired.or(packet.relocation.take());
         packet.recentre = None;
-        if let Some(tool) = packet.tool.filter(|_| self.follow_tool && self.requested.is_none()) {
-            let wanted = Sphere { centre: tool.start, radius: region_radius(self.radius, tool.radius) };
+        packet.cuts = self.log.len();
+        // Where the region should be: about the sphere tool, else about the focus (a
+        // scalpel's tip), else where it is.
+        let wanted = match (packet.tool, self.focus) {
+            (Some(tool), _) => Sphere { centre: tool.start, radius: region_radius(self.radius, tool.radius) },
+            (None, Some(focus)) => Sphere { centre: focus, radius: self.radius },
+            (None, None) => self.layout.sphere,
+        };
+        if self.follow_tool && self.requested.is_none() {
             // Built again when the tool strays from its centre, outgrows it, or has shrunk
-            // well inside a region grown for it.
+            // well inside a region grown for it; and after a cut, for a factor of the cut model.
             let differs = |from: &Sphere| {
                 distance(wanted.centre, from.centre) > RECENTRE_FRACTION * from.radius
                     || wanted.radius > from.radius
                     || wanted.radius < SHRINK_FRACTION * from.radius
             };
-            if differs(&self.layout.sphere) && self.refused_at.as_ref().is_none_or(differs) {
+            let moved = differs(&self.layout.sphere) && self.refused_at.as_ref().is_none_or(differs);
+            let cut_since = packet.cuts > self.layout.cuts_built && self.refused_at.is_none();
+            if moved || cut_since {
                 packet.recentre = Some(wanted);
                 self.requested = Some(wanted);
             }
@@ -992,6 +1116,7 @@ fn start_build<T: Real>(
     builder: &Arc<RegionBuilder>,
     sphere: Sphere,
     capacity: (usize, usize),
+    cuts: usize,
 ) -> Result<Building<T>, super::SimulationBuildError> {
     let builder = Arc::clone(builder);
     let thread = std::thread::Builder::new()
@@ -999,7 +1124,7 @@ fn start_build<T: Real>(
         .spawn(move || {
             super::idle_priority::lower_this_threads_priority();
             let start = Instant::now();
-            let built = builder.build::<T>(sphere, capacity);
+            let built = builder.build::<T>(sphere, capacity, cuts);
             (built, start.elapsed())
         })
         .map_err(|e| super::SimulationBuildError::Multirate(format!("starting the region builder's thread: {e}")))?;
@@ -1010,6 +1135,8 @@ fn start_build<T: Real>(
 struct Pending<T: Real> {
     lists: BulkLists,
     bulk: super::Simulation<T>,
+    /// The cuts the bulk was built with.
+    cuts: usize,
 }
 
 /// The bulk thread: waits for the packet, takes the region's core and the tool into the
@@ -1021,6 +1148,7 @@ fn bulk_loop<T: Real>(
     mut bulk: super::Simulation<T>,
     mut lists: BulkLists,
     builder: Option<Arc<RegionBuilder>>,
+    log: &CutLog,
     to_bulk: &ArrayQueue<Box<Packet<T>>>,
     to_region: &ArrayQueue<Box<Packet<T>>>,
     quit: &AtomicBool,
@@ -1031,6 +1159,8 @@ fn bulk_loop<T: Real>(
     let mut building: Option<(Building<T>, u64)> = None;
     // Packets taken so far.
     let mut exchange = 0u64;
+    // The cuts the bulk has made (the first ones of the log).
+    let mut cut = 0usize;
     loop {
         let Some(mut packet) = to_bulk.pop() else {
             if quit.load(Ordering::Acquire) {
@@ -1050,10 +1180,16 @@ fn bulk_loop<T: Real>(
             // The region took the new region: the bulk holding its core goes on from the
             // whole model's state here.
             lists = next.lists;
+            cut = next.cuts;
             let old = std::mem::replace(&mut bulk, next.bulk);
             bulk.take_state_of(&old);
             retired_bulk = Some(old);
         }
+        // The cuts the region made by the packet's time, before the step from it.
+        for spring in log.springs(cut, packet.cuts) {
+            bulk.cut_own_spring(spring);
+        }
+        cut = cut.max(packet.cuts);
         // A region sent and not taken (the bulk's state was refused) is dropped.
         let unadopted = pending.take();
         let core = &lists.core;
@@ -1084,8 +1220,8 @@ fn bulk_loop<T: Real>(
             });
             packet.build_ns = took.as_nanos() as u64;
             match result {
-                Ok(Built { relocation, bulk }) => {
-                    pending = Some(Pending { lists: BulkLists::of(&relocation.layout.partition), bulk });
+                Ok(Built { relocation, bulk, cuts }) => {
+                    pending = Some(Pending { lists: BulkLists::of(&relocation.layout.partition), bulk, cuts });
                     packet.relocation = Some(Box::new(relocation));
                 }
                 Err(_) => packet.recentre_refused = true,
@@ -1096,7 +1232,7 @@ fn bulk_loop<T: Real>(
         let capacity = (packet.loads.capacity(), packet.handles.capacity());
         if let Some((sphere, builder)) = request.zip(builder.as_ref()) {
             let build_exchanges = builder.settings.build_exchanges.unwrap_or(DEFER_BUILD_EXCHANGES);
-            match start_build::<T>(builder, sphere, capacity) {
+            match start_build::<T>(builder, sphere, capacity, packet.cuts) {
                 // Asked with packet `exchange`, taken by the region at exchange
                 // `exchange + build_exchanges`: returned with packet `exchange + build_exchanges - 1`.
                 Ok(started) => building = Some((started, exchange + u64::from(build_exchanges) - 1)),
@@ -1176,9 +1312,9 @@ mod tests {
         };
         let effects = Effects::default();
         let Relocation { layout, region } =
-            build_region::<f64>(&model, &params, &effects, &settings, (0, 0), None).unwrap();
+            build_region::<f64>(&model, &params, &effects, &settings, (0, 0), None, &[]).unwrap();
         let bulk_params = crate::solver::IntegrationParameters { dt: params.dt * 4.0, ..params.clone() };
-        let bulk = build_bulk::<f64>(&model, &layout.partition, &bulk_params, &effects, (0, 0), None).unwrap();
+        let bulk = build_bulk::<f64>(&model, &layout.partition, &bulk_params, &effects, (0, 0), None, &[]).unwrap();
         let mut m = Multirate::start(&model, bulk, layout, None, &settings, effects, None).unwrap();
         // Defer: a bulk step may take three ticks of wall-clock time.
         assert_eq!(m.late_after, Some(Duration::from_secs_f64(3.0 * params.dt)));

@@ -97,9 +97,6 @@ pub enum CutError {
     /// Only the real-time implicit integrator masks springs in its runs.
     #[error("cutting needs integrator implicit_factored, not {0}")]
     Integrator(IntegratorKind),
-    /// The region and the bulk of a multirate simulation hold springs of their own.
-    #[error("cutting a multirate simulation is not supported: step the scene single-rate (no [solver.multirate])")]
-    Multirate,
     /// The thread that factors the cut model did not start.
     #[error("the thread that factors the cut model did not start")]
     Thread,
@@ -246,9 +243,9 @@ impl<T: Real> Simulation<T> {
             _ => settings,
         };
         let Relocation { layout, region: mut sim } =
-            build_region::<T>(model, &region_params, &effects, &first, capacity, None)?;
+            build_region::<T>(model, &region_params, &effects, &first, capacity, None, &[])?;
         let bulk_start = Instant::now();
-        let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, capacity, None)?;
+        let bulk = build_bulk(model, &layout.partition, &bulk_params, &effects, capacity, None, &[])?;
         let build_exchanges = settings.build_exchanges.unwrap_or_else(|| match settings.late_build {
             // Taken as soon as it is built.
             LateBuild::Defer => DEFER_BUILD_EXCHANGES,
@@ -504,15 +501,12 @@ impl<T: Real> Simulation<T> {
         (self.implicit.last_iterations, self.implicit.last_residual)
     }
 
-    /// Whether springs can be cut ([`Simulation::cut_spring`]): single-rate
-    /// `implicit_factored` only.
+    /// Whether springs can be cut ([`Simulation::cut_spring`]): `implicit_factored`,
+    /// single-rate or multirate.
     ///
     /// # Errors
     /// [`CutError`] names what stands in the way.
     pub fn can_cut(&self) -> Result<(), CutError> {
-        if self.multirate.is_some() {
-            return Err(CutError::Multirate);
-        }
         match self.factored {
             Some(_) => Ok(()),
             None => Err(CutError::Integrator(self.params.integrator)),
@@ -526,18 +520,69 @@ impl<T: Real> Simulation<T> {
     /// its matrix: it stays a valid, stiffer preconditioner of the cut system. Allocates
     /// nothing.
     pub fn cut_spring(&mut self, spring: usize) -> bool {
-        if self.multirate.is_some() {
+        if let Some(m) = &mut self.multirate {
+            // A model spring: logged for the bulk (at the next exchange) and for regions
+            // built later, and cut in the region now when the region holds it.
+            let Some(local) = m.record_cut(spring) else { return false };
+            if let Some(local) = local {
+                self.cut_own_spring(local);
+            }
+            self.cuts += 1;
+            return true;
+        }
+        if !self.cut_own_spring(spring) {
             return false;
         }
-        let Some(solver) = &mut self.factored else { return false };
-        let Some([a, b]) = solver.cut_spring(spring) else { return false };
-        self.dynamics.skin_volume.remove_tets_with_edge(a, b);
         if let Some(r) = &mut self.refactor {
             r.record(spring);
         }
         self.cuts += 1;
+        true
+    }
+
+    /// Cuts spring `spring` of this simulation's own model (the region's, with multirate):
+    /// its lanes masked, the skin tetrahedra on its edge without their volume term. Returns
+    /// whether it was cut now. Allocates nothing.
+    pub(super) fn cut_own_spring(&mut self, spring: usize) -> bool {
+        let Some(solver) = &mut self.factored else { return false };
+        let Some([a, b]) = solver.cut_spring(spring) else { return false };
+        self.dynamics.skin_volume.remove_tets_with_edge(a, b);
         self.verlet.valid_at = None;
         true
+    }
+
+    /// Cuts `springs` of this simulation's own `model` (the model it was built from) and
+    /// factors the cut model's matrix in place of the first factor: a simulation built off
+    /// the loop for a model cut before (a multirate region or bulk). Allocates; call it off
+    /// the loop.
+    pub(super) fn cut_and_refactor(&mut self, model: &Model, springs: &[usize]) -> Result<(), SimulationBuildError> {
+        let mut cut_model = model.clone();
+        let mut any = false;
+        for &s in springs {
+            if self.cut_own_spring(s) {
+                cut_model.springs.law[s] = crate::law::SpringLaw::Linear { stiffness: 0.0 };
+                cut_model.springs.damping[s] = 0.0;
+                any = true;
+            }
+        }
+        let Some(solver) = &mut self.factored else { return Ok(()) };
+        if !any {
+            return Ok(());
+        }
+        let (cm, cc, ck) = solver.preconditioner_coefficients(self.dynamics.effects.viscous_damping.unwrap_or(0.0));
+        let inputs = super::factored_preconditioner::PreconditionerInputs::of(&self.dynamics);
+        let mut pre = super::factored_preconditioner::FactoredPreconditioner::from_inputs(
+            &cut_model,
+            &inputs,
+            cm,
+            cc,
+            ck,
+            self.params.simd,
+            self.params.factor_storage,
+        )
+        .map_err(SimulationBuildError::Factor)?;
+        solver.swap_preconditioner(&mut pre);
+        Ok(())
     }
 
     /// Starts the thread that factors the cut model's matrix off the loop for `model` (the
@@ -547,8 +592,16 @@ impl<T: Real> Simulation<T> {
     ///
     /// # Errors
     /// [`CutError`] when the simulation cannot be cut or the thread does not start.
+    ///
+    /// With multirate stepping this starts nothing: after a cut the region and the bulk are
+    /// built again off the loop, factored without the cut springs, and taken like a region
+    /// that follows the tool ([`MultirateSettings::follow_tool`] on; off, the first factors
+    /// stay).
     pub fn prepare_cutting(&mut self, model: &Model, swap: super::refactor::FactorSwap) -> Result<(), CutError> {
         self.can_cut()?;
+        if self.multirate.is_some() {
+            return Ok(());
+        }
         let Some(solver) = &self.factored else { return Err(CutError::Integrator(self.params.integrator)) };
         let (cm, cc, ck) = solver.preconditioner_coefficients(self.dynamics.effects.viscous_damping.unwrap_or(0.0));
         let recipe =
@@ -562,6 +615,14 @@ impl<T: Real> Simulation<T> {
     /// What the off-loop factor builds have done (`None` without [`Simulation::prepare_cutting`]).
     pub fn refactor_status(&self) -> Option<super::refactor::RefactorStatus> {
         self.refactor.as_ref().map(|r| r.status())
+    }
+
+    /// With multirate stepping, where the region follows while no sphere tool is on (m): a
+    /// scalpel cutting sets its tip here. `None`, or single-rate: nothing.
+    pub fn set_focus(&mut self, point: Option<[f64; 3]>) {
+        if let Some(m) = &mut self.multirate {
+            m.set_focus(point);
+        }
     }
 
     /// Springs cut so far.
@@ -627,6 +688,11 @@ impl<T: Real> Simulation<T> {
                 // parts, `relocation` the old ones, dropped on the bulk's thread.
                 self.swap_region(&mut relocation.region);
                 m.adopt(relocation, &mut self.state);
+                // The region was built with the cuts made when it was asked for; the ones
+                // made since are cut in it now.
+                for local in m.cuts_since_build() {
+                    self.cut_own_spring(local);
+                }
                 self.snapshot.copy_from(&self.state);
             }
             m.send(&self.state, retired);

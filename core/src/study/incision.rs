@@ -17,7 +17,7 @@ use crate::hand_tool::HandTool;
 use crate::incision::{Blade, BladeState, EdgeInTissue, Scalpel, ScalpelSettings};
 use crate::model::{Model, Tissue};
 use crate::scene::Scene;
-use crate::solver::{CutError, FactorSwap, RefactorStatus, Simulation, SimulationBuildError};
+use crate::solver::{CutError, FactorSwap, MultirateStatus, RefactorStatus, Simulation, SimulationBuildError};
 
 /// Ticks after a cut at which the study takes the factor of the cut model (waiting for it if
 /// need be, so the study gives the same bits run to run).
@@ -69,8 +69,12 @@ pub struct IncisionResult {
     /// Mean relative PCG residual per tick: before the first cut, after a cut with a factor
     /// that lacks it, and with the factor of the model as cut.
     pub residuals: (f64, f64, f64),
-    /// The off-loop factor builds (taken [`INCISION_FACTOR_TICKS`] ticks after each ask).
+    /// The off-loop factor builds (taken [`INCISION_FACTOR_TICKS`] ticks after each ask);
+    /// single-rate only.
     pub refactor: RefactorStatus,
+    /// With multirate stepping, the coupling at the end: its regions built again after cuts
+    /// ([`MultirateStatus::cuts_in_factor`]) and about the moving tip.
+    pub multirate: Option<MultirateStatus>,
     /// Compute time per tick of the ticks that cut and of the others, s (for the printout:
     /// the study's own loop, not a pinned real-time one).
     pub tick_seconds_cutting: Vec<f64>,
@@ -184,20 +188,27 @@ fn run(
     leg((r_in, z1), (r_out, z1));
     let (mut res_before, mut res_old, mut res_new) = (Vec::new(), Vec::new(), Vec::new());
     let (mut cutting, mut other, mut taking) = (Vec::new(), Vec::new(), Vec::new());
+    // Factors of the cut model taken so far, and the cuts the one in use holds: the off-loop
+    // refactor's single-rate, the region's rebuilt about the tip with multirate.
+    let factors = |sim: &Simulation<f64>| match (sim.refactor_status(), sim.multirate_status()) {
+        (Some(r), _) => (r.taken, r.cuts_in_factor as u64),
+        (None, Some(m)) => (m.recentres, m.cuts_in_factor as u64),
+        (None, None) => (0, 0),
+    };
     for &(r, z) in &path {
-        let taken = sim.refactor_status().map_or(0, |r| r.taken);
+        let taken = factors(sim).0;
         let start = Instant::now();
         let tick = scalpel.move_to(sim, blade_at(r, z), dt);
         step(sim);
         let seconds = start.elapsed().as_secs_f64();
         let residual = sim.implicit_factored().map_or(0.0, |f| f.last_residual());
-        let in_factor = sim.refactor_status().map_or(0, |r| r.cuts_in_factor) as u64;
+        let in_factor = factors(sim).1;
         match sim.cuts() {
             0 => res_before.push(residual),
             n if n > in_factor => res_old.push(residual),
             _ => res_new.push(residual),
         }
-        if sim.refactor_status().map_or(0, |r| r.taken) > taken {
+        if factors(sim).0 > taken {
             taking.push(seconds);
         } else if tick.springs_cut > 0 {
             cutting.push(seconds);
@@ -242,6 +253,7 @@ fn run(
         closed_form_gap_m: (2.0 * case.length_m * eps, 3.0 * case.length_m * eps),
         residuals: (mean(&res_before), mean(&res_old), mean(&res_new)),
         refactor: sim.refactor_status().unwrap_or_default(),
+        multirate: sim.multirate_status(),
         tick_seconds_cutting: cutting,
         tick_seconds_other: other,
         tick_seconds_taking: taking,
